@@ -1,0 +1,1 @@
+"""TSAD on Drake."""

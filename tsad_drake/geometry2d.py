@@ -1,0 +1,142 @@
+"""Planar geometry of upright objects: footprints, gripper corridors and their contacts.
+
+Everything here is NumPy only, so the scenario generator, the oracle feasibility model and the
+world model share one definition of "touching" without importing Drake.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: vertices used to approximate a circular footprint (inscribed error < 0.9% of the radius)
+CIRCLE_VERTICES = 24
+
+
+def rotation2d(angle: float) -> np.ndarray:
+    """2x2 rotation matrix for `angle` radians."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
+def footprint_polygon(shape: str, size: list[float] | tuple[float, ...], x: float, y: float,
+                      yaw: float) -> np.ndarray:
+    """Counter-clockwise convex polygon (K, 2) of an upright object's footprint in the shelf frame.
+
+    Args:
+        shape: "cylinder" (size = [radius, height]) or "box" (size = [size_x, size_y, height]).
+        size: dimensions in metres.
+        x, y, yaw: planar pose of the object centre in the shelf frame.
+    """
+    if shape == "cylinder":
+        radius = size[0]
+        # circumscribed polygon so the approximation never under-reports contact
+        angles = np.arange(CIRCLE_VERTICES) * 2 * np.pi / CIRCLE_VERTICES
+        r = radius / np.cos(np.pi / CIRCLE_VERTICES)
+        local = np.stack([r * np.cos(angles), r * np.sin(angles)], axis=1)
+    elif shape == "box":
+        hx, hy = size[0] / 2, size[1] / 2
+        local = np.array([[hx, hy], [-hx, hy], [-hx, -hy], [hx, -hy]])
+    else:
+        raise ValueError(f"unknown shape {shape!r}")
+    return local @ rotation2d(yaw).T + np.array([x, y])
+
+
+def width_across(shape: str, size: list[float] | tuple[float, ...], yaw: float,
+                 theta: float) -> float:
+    """Extent of the footprint perpendicular to the approach direction theta (what the fingers span)."""
+    if shape == "cylinder":
+        return 2.0 * size[0]
+    phi = yaw - theta
+    return abs(size[0] * np.sin(phi)) + abs(size[1] * np.cos(phi))
+
+
+def extent_along(shape: str, size: list[float] | tuple[float, ...], yaw: float,
+                 theta: float) -> float:
+    """Extent of the footprint along the approach direction theta."""
+    if shape == "cylinder":
+        return 2.0 * size[0]
+    phi = yaw - theta
+    return abs(size[0] * np.cos(phi)) + abs(size[1] * np.sin(phi))
+
+
+def _edge_normals(poly: np.ndarray) -> np.ndarray:
+    edges = np.roll(poly, -1, axis=0) - poly
+    normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+    return normals / np.linalg.norm(normals, axis=1, keepdims=True)
+
+
+def convex_polygons_overlap(a: np.ndarray, b: np.ndarray, margin: float = 0.0) -> bool:
+    """True when convex polygons a and b overlap or come closer than `margin` (separating axes)."""
+    for normals in (_edge_normals(a), _edge_normals(b)):
+        pa = a @ normals.T
+        pb = b @ normals.T
+        separated = (pa.min(axis=0) > pb.max(axis=0) + margin) | (
+            pb.min(axis=0) > pa.max(axis=0) + margin)
+        if np.any(separated):
+            return False
+    if margin <= 0.0:
+        return True
+    # SAT with a margin is conservative at corners: confirm with the true distance
+    return convex_polygon_distance(a, b) < margin
+
+
+def _point_segment_distance(points: np.ndarray, seg_a: np.ndarray, seg_b: np.ndarray) -> np.ndarray:
+    """Distances (P, S) from each point to each segment."""
+    d = seg_b - seg_a  # (S, 2)
+    rel = points[:, None, :] - seg_a[None, :, :]  # (P, S, 2)
+    t = np.clip(np.sum(rel * d[None], axis=2) / np.maximum(np.sum(d * d, axis=1), 1e-18), 0, 1)
+    closest = seg_a[None] + t[..., None] * d[None]
+    return np.linalg.norm(points[:, None, :] - closest, axis=2)
+
+
+def convex_polygon_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Euclidean distance between convex polygons (0 when they overlap)."""
+    if convex_polygons_overlap(a, b):
+        return 0.0
+    da = _point_segment_distance(a, b, np.roll(b, -1, axis=0)).min()
+    db = _point_segment_distance(b, a, np.roll(a, -1, axis=0)).min()
+    return float(min(da, db))
+
+
+def corridor_polygon(x: float, y: float, theta: float, half_width: float, start_behind: float,
+                     length: float) -> np.ndarray:
+    """Rectangle swept by the gripper approaching the point (x, y) along (cos theta, sin theta).
+
+    The rectangle spans from `start_behind` beyond the point (fingertips reach past the object's
+    centre) back to `length` before it (outside the shelf), with `half_width` on each side.
+    """
+    u = np.array([np.cos(theta), np.sin(theta)])
+    v = np.array([-u[1], u[0]])
+    c = np.array([x, y])
+    front = c + start_behind * u
+    back = c - length * u
+    return np.array([front - half_width * v, front + half_width * v,
+                     back + half_width * v, back - half_width * v])
+
+
+def points_in_polygon(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Boolean mask of points (P, 2) inside the counter-clockwise convex polygon."""
+    edges = np.roll(poly, -1, axis=0) - poly
+    rel = points[:, None, :] - poly[None, :, :]
+    cross = edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0]
+    return np.all(cross >= 0, axis=1)
+
+
+def approach_corridor(x: float, y: float, theta: float, half_width: float, finger_reach: float,
+                      outside: float = 0.30) -> np.ndarray:
+    """Corridor swept by the open gripper reaching the grasp point (x, y) from outside the shelf.
+
+    It runs from `finger_reach` past the point back along the approach line until it is `outside`
+    metres in front of the shelf's front edge (x = 0).
+    """
+    length = (x + outside) / max(np.cos(theta), 1e-6)
+    return corridor_polygon(x, y, theta, half_width, finger_reach, length)
+
+
+def side_wall_polygons(depth: float, width: float, thickness: float) -> list[np.ndarray]:
+    """Footprints of the two side walls (an approach that crosses one is blocked by the shelf)."""
+    walls = []
+    for side in (1.0, -1.0):
+        yc = side * (width / 2 + thickness / 2)
+        walls.append(footprint_polygon("box", (depth + thickness, thickness), depth / 2, yc, 0.0))
+    return walls

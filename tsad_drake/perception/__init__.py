@@ -1,0 +1,1 @@
+"""Perception: depth -> point clouds -> per-object segments."""
