@@ -1,0 +1,1 @@
+"""Executing plans in a world model of the true scene."""

@@ -1,0 +1,1 @@
+"""Symbolic planning: state, point-cloud simulation, feasibility models, TSAD and baselines (no Drake)."""

@@ -1,0 +1,98 @@
+"""The planning layer's shared types: workspace, state, action, plan, and the FeasibilityModel interface.
+
+The planners see only these, a FeasibilityModel and the point-cloud simulation; nothing here
+imports Drake or reads true object shapes (except the `oracle` model, which is given the scenario).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+from typing import Protocol
+
+import numpy as np
+
+
+@dc.dataclass(frozen=True)
+class Workspace:
+    """Fixed facts of the shelf the planner may use: its size, grid, angles and gripper."""
+
+    depth: float  #: m, along +x of the shelf frame S
+    width: float  #: m, along y
+    wall_thickness: float  #: m
+    approach_angles: np.ndarray  #: rad, Theta (sorted)
+    cell_centres: np.ndarray  #: (Gx*Gy, 2) m, placement candidates (x, y) in S
+    stroke: float  #: m, gripper stroke
+    grasp_margin: float  #: m, object must be this much narrower than the stroke
+    swept_half_width: float  #: m, half width of the open gripper's swept corridor
+    finger_reach: float  #: m, fingertip sweep past the grasp centre
+    min_empty_distance: float  #: m, d_min: a cell is empty when no object point lies closer
+
+
+@dc.dataclass(frozen=True)
+class PlanObject:
+    """An object as the planner knows it: perceived points plus the planar pose estimate."""
+
+    name: str
+    points: np.ndarray  #: (P, 3) m in S; never mutated in place (copy on move)
+    x: float  #: m
+    y: float  #: m
+    yaw: float  #: rad
+
+
+@dc.dataclass(frozen=True)
+class PlanningState:
+    """Objects (as perceived, then as simulated) and the name of the target."""
+
+    objects: tuple[PlanObject, ...]
+    target: str
+
+    def index(self, name: str) -> int:
+        for i, obj in enumerate(self.objects):
+            if obj.name == name:
+                return i
+        raise KeyError(name)
+
+    @property
+    def target_index(self) -> int:
+        return self.index(self.target)
+
+
+@dc.dataclass(frozen=True)
+class Action:
+    """Pick-and-place {n, theta_pick, x, y, theta_place}; n is an object name."""
+
+    object: str
+    theta_pick: float  #: rad
+    x: float  #: m, placement cell centre in S
+    y: float  #: m
+    theta_place: float  #: rad
+    sub_search: int = 0  #: which sub-MCTS (or planner stage) produced it
+
+
+@dc.dataclass
+class Plan:
+    """A planner's answer: relocations, then the target taken out at theta_star."""
+
+    planner: str
+    theta_star: float | None  #: rad, retrieval angle; None when planning failed
+    actions: list[Action]
+    success: bool  #: the planner claims the target can be retrieved after `actions`
+    failure_reason: str = ""
+    planning_time_s: float = 0.0
+    stats: dict = dc.field(default_factory=dict)  #: iterations, nodes, |R| per sub-search, ...
+
+
+class FeasibilityModel(Protocol):
+    """Answers prehensile questions about a state; batched over approach angles.
+
+    `blockers(state, i)` gives, per angle in workspace.approach_angles, the indices of objects
+    whose presence makes approaching object i at that angle collide (the smallest rearrangement
+    set R_{theta,s} when i is the target). `pickable(state, i)` gives, per angle, whether object i
+    can be picked there: a clear approach and its width across the gripper fits the stroke.
+    """
+
+    name: str
+
+    def blockers(self, state: PlanningState, index: int) -> list[frozenset[int]]: ...
+
+    def pickable(self, state: PlanningState, index: int) -> np.ndarray: ...
