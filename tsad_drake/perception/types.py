@@ -17,6 +17,8 @@ class PerceivedObject:
     y: float  #: m
     yaw: float  #: rad, estimated orientation about +z
     is_target: bool = False
+    shape: str = ""  #: fitted footprint model, "cylinder" or "box" ("" when not estimated)
+    size: tuple[float, ...] = ()  #: m, fitted (radius,) or (sx, sy) along yaw and across
 
 
 @dc.dataclass

@@ -1,0 +1,129 @@
+"""One observation: depth images at every approach angle -> fused cloud -> PerceivedScene.
+
+`observe(station)` renders with the Drake station (the real path); `observe_raycast(scenario)`
+renders the same camera with the NumPy ray caster in `tsad_drake.viewpoints` (a fast path for
+the planners' tests and benchmarks). Both return the same `Observation`.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from typing import Any
+
+import numpy as np
+
+from tsad_drake.perception.pointcloud import CloudConfig, LabelledCloud, views_to_cloud
+from tsad_drake.perception.pose import PoseConfig, estimate_planar_pose
+from tsad_drake.perception.segmentation import ClusterConfig, Segment, segment
+from tsad_drake.perception.types import PerceivedObject, PerceivedScene
+from tsad_drake.scenario import Scenario
+from tsad_drake.viewpoints import CameraConfig, camera_pose, raycast, scenario_prisms
+
+
+@dc.dataclass
+class View:
+    """One rendered viewpoint."""
+
+    theta: float  #: rad, approach angle the camera looks along
+    depth: np.ndarray  #: (H, W) float32 m, inf where nothing
+    label: np.ndarray  #: (H, W) int32 object index, -1 for shelf/background
+    X_SC: np.ndarray  #: 4x4 camera pose in S
+
+
+@dc.dataclass
+class PerceptionConfig:
+    """Everything the depth -> scene pipeline can be tuned by."""
+
+    cloud: CloudConfig = dc.field(default_factory=CloudConfig)
+    cluster: ClusterConfig = dc.field(default_factory=ClusterConfig)
+    pose: PoseConfig = dc.field(default_factory=PoseConfig)
+
+
+@dc.dataclass
+class Observation:
+    """Per-view images, the fused shelf-free cloud and the segmented scene."""
+
+    views: list[View]
+    cloud: LabelledCloud  #: fused, down-sampled, shelf removed, labels from the pixels
+    scene: PerceivedScene
+    segments: list[Segment]  #: the segments behind scene.objects (indices into `cloud`)
+    segmentation: str  #: "label" or "cluster"
+
+
+def perceive(views: list[View], intrinsics: np.ndarray, scenario: Scenario,
+             segmentation: str = "label", config: PerceptionConfig | None = None) -> Observation:
+    """Views -> fused cloud -> segments -> planar poses (the renderer-independent pipeline)."""
+    config = config or PerceptionConfig()
+    cloud = views_to_cloud([(v.depth, v.label, v.X_SC) for v in views], intrinsics,
+                           scenario.shelf, config.cloud)
+    names = [o.name for o in scenario.objects]
+    target_label = names.index(scenario.target) if scenario.target in names else None
+    segments = segment(cloud, segmentation, names, target_label, config.cluster)
+    objects = []
+    for seg in segments:
+        pose = estimate_planar_pose(seg.points, config.pose)
+        objects.append(PerceivedObject(seg.name, seg.points, pose.x, pose.y, pose.yaw,
+                                       is_target=seg.is_target, shape=pose.shape,
+                                       size=tuple(pose.size)))
+    target = next((o.name for o in objects if o.is_target), None)
+    return Observation(views, cloud, PerceivedScene(objects, target), segments, segmentation)
+
+
+def observe_raycast(scenario: Scenario, camera: CameraConfig | None = None,
+                    segmentation: str = "label",
+                    config: PerceptionConfig | None = None) -> Observation:
+    """Observe `scenario` from every approach angle with the NumPy ray caster (no Drake)."""
+    camera = camera or CameraConfig()
+    prisms = scenario_prisms(scenario)
+    views = []
+    for theta in scenario.approach_angles:
+        X_SC = camera_pose(scenario.shelf, camera, float(theta))
+        depth, label = raycast(prisms, camera, X_SC)
+        views.append(View(float(theta), depth.astype(np.float32), label, X_SC))
+    return perceive(views, camera.intrinsics(), scenario, segmentation, config)
+
+
+def station_intrinsics(station: Any, depth_shape: tuple[int, int]) -> np.ndarray:
+    """The station camera's 3x3 intrinsics (its `camera` config, else the default camera)."""
+    camera = getattr(station, "camera", None)
+    if not isinstance(camera, CameraConfig):
+        camera = CameraConfig()
+    if (camera.height, camera.width) != tuple(depth_shape):
+        raise ValueError(f"station depth images are {depth_shape}, camera config says "
+                         f"{(camera.height, camera.width)}")
+    return camera.intrinsics()
+
+
+def observe(station: Any, segmentation: str = "label",
+            config: PerceptionConfig | None = None) -> Observation:
+    """Observe the station's scene from every approach angle with its Drake renderer.
+
+    Args:
+        station: a `MakeStation(scenario)` result: `.scenario`, `.render(theta) -> (depth, label,
+            X_SC)`, and optionally `.camera` (a CameraConfig; the default camera otherwise).
+        segmentation: "label" (renderer's label image) or "cluster" (point cloud only).
+        config: pipeline settings.
+    """
+    scenario = station.scenario
+    views = []
+    for theta in scenario.approach_angles:
+        depth, label, X_SC = station.render(float(theta))
+        views.append(View(float(theta), np.asarray(depth, dtype=np.float32),
+                          np.asarray(label, dtype=np.int32), np.asarray(X_SC, dtype=float)))
+    intrinsics = station_intrinsics(station, views[0].depth.shape)
+    return perceive(views, intrinsics, scenario, segmentation, config)
+
+
+def summary_table(scene: PerceivedScene) -> str:
+    """A fixed-width table of the perceived objects (name, points, x, y, yaw deg, target)."""
+    header = (f"{'name':<12} {'points':>6} {'x [m]':>7} {'y [m]':>7} {'yaw [deg]':>9} "
+              f"{'shape':<8} target")
+    lines = [header]
+    for o in scene.objects:
+        lines.append(f"{o.name:<12} {len(o.points):>6d} {o.x:>7.3f} {o.y:>7.3f} "
+                     f"{math.degrees(o.yaw):>9.1f} {getattr(o, 'shape', ''):<8} "
+                     f"{'*' if o.is_target else ''}")
+    if scene.target is None:
+        lines.append("(target not seen)")
+    return "\n".join(lines)
