@@ -7,9 +7,10 @@ the paper's scenarios lives in `tsad_drake.scenario_generator`.
 Frames: shelf frame S has its origin at the centre of the shelf's front edge on the shelf floor,
 +x into the shelf, +y to the left, +z up. Object poses are planar (x, y, yaw) in S, upright on
 the floor.
+
+No `from __future__ import annotations` here: Drake's typed YAML reads the real field types.
 """
 
-from __future__ import annotations
 
 import dataclasses as dc
 import math

@@ -1,0 +1,114 @@
+"""Scenario dataclasses, YAML I/O and the generator's invariants."""
+
+import dataclasses as dc
+
+import numpy as np
+import pytest
+
+from tsad_drake.geometry2d import convex_polygon_distance, width_across
+from tsad_drake.scenario import ScenarioError, load_scenario, save_scenario, validate
+from tsad_drake.scenario_generator import (
+    BUILTIN_SCENARIOS,
+    generate_scenario,
+    scenario_defaults,
+    target_blockers,
+)
+from tsad_drake.viewpoints import CameraConfig, target_visibility
+
+SCENES_PER_SCENARIO = 100
+
+
+def _check_invariants(scenario):
+    shelf, cfg = scenario_defaults(scenario.name)
+    assert len(scenario.objects) == cfg.num_objects
+    polys = [o.footprint() for o in scenario.objects]
+    for obj, poly in zip(scenario.objects, polys):
+        assert obj.height < shelf.height
+        assert poly[:, 0].min() >= 0 and poly[:, 0].max() <= shelf.depth
+        assert np.abs(poly[:, 1]).max() <= shelf.width / 2
+    for i in range(len(polys)):
+        for j in range(i + 1, len(polys)):
+            assert convex_polygon_distance(polys[i], polys[j]) >= scenario.min_gap - 1e-9
+    target = scenario.object(scenario.target)
+    assert target.x >= cfg.target_depth_fraction * shelf.depth
+    # the target itself fits the gripper from every angle; blockers must be moved first
+    stroke = scenario.gripper.stroke - scenario.gripper.grasp_margin
+    assert all(width_across(target.shape, target.size, target.yaw, th) <= stroke
+               for th in scenario.approach_angles)
+    assert min(len(target_blockers(scenario, th)) for th in scenario.approach_angles) >= 1
+    visible = target_visibility(scenario, CameraConfig(), 0.0)
+    assert cfg.min_visible <= visible <= cfg.max_visible
+    return cfg
+
+
+@pytest.mark.parametrize("name", BUILTIN_SCENARIOS)
+def test_generated_scenes_satisfy_invariants(name):
+    kinds = []
+    for seed in range(SCENES_PER_SCENARIO):
+        scenario = generate_scenario(name, seed)
+        _check_invariants(scenario)
+        kinds.extend(o.kind for o in scenario.objects)
+    stroke = 0.085 - 0.005
+    if name == "1":
+        assert set(kinds) <= {"cylinder", "square_pillar"}
+    if name == "2":
+        assert "rectangular" in kinds
+    if name == "3":
+        assert kinds.count("large") == SCENES_PER_SCENARIO
+    # what the kinds promise about the gripper
+    for seed in range(5):
+        for obj in generate_scenario(name, seed).objects:
+            widths = [width_across(obj.shape, obj.size, obj.yaw, np.radians(a))
+                      for a in range(-30, 31, 10)]
+            if obj.kind in ("cylinder", "square_pillar"):
+                assert max(widths) <= stroke
+            if obj.kind == "large":
+                assert min(widths) > 0.085
+
+
+def test_same_seed_same_scene_and_different_seeds_differ():
+    a, b, c = generate_scenario("2", 7), generate_scenario("2", 7), generate_scenario("2", 8)
+    assert a == b
+    assert a != c
+
+
+def test_occluded_target_is_hidden_in_every_view():
+    scenario = generate_scenario("1", 0, occluded=True)
+    assert scenario.occluded
+    for theta in scenario.approach_angles:
+        assert target_visibility(scenario, CameraConfig(), theta) == 0.0
+
+
+def test_yaml_round_trip(tmp_path):
+    scenario = generate_scenario("3", 4)
+    path = tmp_path / "scene.yaml"
+    save_scenario(scenario, path)
+    loaded = load_scenario(path)
+    assert loaded == scenario
+
+
+def test_malformed_and_impossible_yaml_raise_scenario_error(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("objects: [this is: not valid\n")
+    with pytest.raises(ScenarioError):
+        load_scenario(bad)
+    unknown = tmp_path / "unknown.yaml"
+    unknown.write_text("no_such_field: 3\n")
+    with pytest.raises(ScenarioError):
+        load_scenario(unknown)
+    with pytest.raises(ScenarioError):
+        load_scenario(tmp_path / "missing.yaml")
+
+
+def test_validate_rejects_overlap_outside_and_bad_target():
+    scenario = generate_scenario("1", 1)
+    overlapping = dc.replace(scenario, objects=[dc.replace(o) for o in scenario.objects])
+    overlapping.objects[1].x, overlapping.objects[1].y = scenario.objects[0].x, scenario.objects[0].y
+    with pytest.raises(ScenarioError, match="overlap"):
+        validate(overlapping)
+    outside = dc.replace(scenario, objects=[dc.replace(o) for o in scenario.objects])
+    outside.objects[0].x = -0.2
+    with pytest.raises(ScenarioError, match="outside"):
+        validate(outside)
+    with pytest.raises(ScenarioError, match="target"):
+        validate(dc.replace(scenario, target="nobody"))

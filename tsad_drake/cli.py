@@ -1,0 +1,143 @@
+"""`tsad` command line: render, scene, plan, bench.
+
+Bad input ends with one line on stderr and exit status 2; a planning failure is a result
+(exit status 1, the JSON says why).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from tsad_drake.scenario import ScenarioError
+
+EXIT_BAD_INPUT = 2
+
+
+class UsageError(ValueError):
+    """Bad command-line input (exit status 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit 2 (argparse prints usage too)
+        print(f"tsad: error: {message}", file=sys.stderr)
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def resolve_scenario(spec: str, seed: int, occluded: bool = False):
+    """A built-in scenario name ("1", "2", "3", "real") with a seed, or a scenario YAML path."""
+    from tsad_drake.scenario import load_scenario
+    from tsad_drake.scenario_generator import BUILTIN_SCENARIOS, generate_scenario
+
+    if spec in BUILTIN_SCENARIOS:
+        if seed < 0:
+            raise UsageError("--seed must be non-negative")
+        return generate_scenario(spec, seed, occluded=occluded)
+    if spec.endswith((".yaml", ".yml")) or os.sep in spec or Path(spec).exists():
+        return load_scenario(spec)
+    raise UsageError(f"unknown scenario {spec!r}: use one of {', '.join(BUILTIN_SCENARIOS)} "
+                     "or the path of a scenario YAML file")
+
+
+def prepare_out_dir(path: str | Path) -> Path:
+    """Create the output directory and prove it is writable before any work is done."""
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".tsad_write_probe"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as err:
+        raise UsageError(f"cannot write to output directory {out}: {err.strerror}") from None
+    return out
+
+
+def prepare_out_file(path: str | Path) -> Path:
+    """Make sure the parent of an output file exists and is writable."""
+    out = Path(path)
+    prepare_out_dir(out.parent if str(out.parent) else ".")
+    return out
+
+
+def _add_scenario_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenario", required=True,
+                   help="built-in scenario 1, 2, 3 or real, or the path of a scenario YAML file "
+                        "(as written by `tsad scene`)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the generated scene for a built-in scenario (default 0)")
+    p.add_argument("--occluded", action="store_true",
+                   help="generate a scene whose target is fully hidden from every view")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="tsad", description=(
+        "TSAD on Drake: target retrieval from a shelf with lateral access. A UR5e with a wrist "
+        "depth camera observes the shelf, perception segments the objects, and TSAD plans which "
+        "blockers to move, where, and from which angle."))
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p = sub.add_parser("scene", help="generate a scenario and write it as YAML",
+                       description="Generate a scene of a built-in scenario and save it as YAML.")
+    _add_scenario_args(p)
+    p.add_argument("--out", required=True, help="scenario YAML file to write")
+
+    p = sub.add_parser("render", help="render depth from every approach angle and segment it",
+                       description=(
+                           "Build the Drake station for the scene, render 128x128 depth from the "
+                           "wrist camera at each approach angle, fuse the views into a point cloud "
+                           "in the shelf frame and segment it. Writes depth.npy (V,H,W float32 "
+                           "metres, inf where nothing), depth.png, labels.npy, cloud.ply, "
+                           "segments.npy (P,4: x, y, z, segment index), segments.json and "
+                           "scene.yaml into --out."))
+    _add_scenario_args(p)
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
+                   help="label: the renderer's label image (stands in for instance segmentation); "
+                        "cluster: DBSCAN on the fused point cloud alone (default label)")
+    from tsad_drake.cli_plan import add_plan_parsers
+
+    add_plan_parsers(sub, _add_scenario_args)
+    return parser
+
+
+def cmd_scene(args: argparse.Namespace) -> int:
+    from tsad_drake.scenario import save_scenario
+
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    out = prepare_out_file(args.out)
+    save_scenario(scenario, out)
+    print(f"wrote {out}: scenario {scenario.name} seed {scenario.seed}, "
+          f"{len(scenario.objects)} objects, target {scenario.target}")
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from tsad_drake.render_output import render_and_write
+
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    out = prepare_out_dir(args.out)
+    render_and_write(scenario, out, args.segmentation)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from tsad_drake.cli_plan import PLAN_COMMANDS
+
+    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS}
+    try:
+        return commands[args.command](args)
+    except (UsageError, ScenarioError) as err:
+        print(f"tsad: error: {err}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("tsad: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
