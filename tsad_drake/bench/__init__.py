@@ -1,0 +1,1 @@
+"""Benchmarks: episodes, metrics, tables, plots, timing scripts."""

@@ -1,0 +1,58 @@
+"""Episode rows -> the paper's table figures (success rate, actions and falls over successes / all)."""
+
+from __future__ import annotations
+
+import statistics
+
+
+def _mean(values: list[float]) -> float | None:
+    return float(statistics.fmean(values)) if values else None
+
+
+def summarise(rows: list[dict]) -> dict:
+    """Summary of a bench run in the paper's format plus timing and difficulty figures."""
+    succ = [r for r in rows if r["success"]]
+    times = [r.get("planning_time_s", 0.0) for r in rows]
+    summary = {
+        "episodes": len(rows),
+        "success_rate": len(succ) / len(rows) if rows else 0.0,
+        "actions_success": _mean([r["num_actions"] for r in succ]),
+        "actions_all": _mean([r["num_actions"] for r in rows]),
+        "falls_success": _mean([r["falls"] for r in succ]),
+        "falls_all": _mean([r["falls"] for r in rows]),
+        "planning_time_median_s": float(statistics.median(times)) if times else None,
+        "planning_time_mean_s": _mean(times),
+        "errors": sum(str(r.get("failure_reason", "")).startswith("error:") for r in rows),
+    }
+    for key in ("random_actions", "initial_rearrangement_set_size", "motion_feasible_share"):
+        values = [r[key] for r in rows if r.get(key) is not None]
+        if values:
+            summary[f"mean_{key}"] = _mean(values)
+    reasons: dict[str, int] = {}
+    for r in rows:
+        if not r["success"]:
+            reason = str(r.get("failure_reason") or "unknown").split(":")[0]
+            reasons[reason] = reasons.get(reason, 0) + 1
+    summary["failure_reasons"] = reasons
+    return summary
+
+
+def _fmt(value: float | None, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def paper_table(columns: dict[str, dict]) -> str:
+    """Markdown table like the paper's Table I: one column per planner (summaries as values)."""
+    names = list(columns)
+    lines = ["| Algorithm | " + " | ".join(names) + " |",
+             "|---|" + "---|" * len(names)]
+
+    def row(label: str, cell) -> None:
+        lines.append(f"| {label} | " + " | ".join(cell(columns[n]) for n in names) + " |")
+
+    row("Success Rate", lambda s: _fmt(s["success_rate"]))
+    row("Avg. of Actions", lambda s: f"{_fmt(s['actions_success'])} / {_fmt(s['actions_all'])}")
+    row("Avg. of Falls", lambda s: f"{_fmt(s['falls_success'])} / {_fmt(s['falls_all'])}")
+    row("Planning time median [s]", lambda s: _fmt(s["planning_time_median_s"]))
+    row("Episodes", lambda s: str(s["episodes"]))
+    return "\n".join(lines)

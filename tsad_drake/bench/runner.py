@@ -1,0 +1,133 @@
+"""`tsad bench`: many episodes of one planner on one scenario, resumable and parallel.
+
+Rows stream to `<out>.rows.jsonl` as episodes finish; a rerun with the same settings skips the
+seeds already there, so an interrupted bench resumes where it stopped. An episode that raises is
+recorded as a failure with its reason. The final `<out>` JSON (rows + summary + machine) is
+written atomically once every episode is in.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import dataclasses as dc
+import datetime as _dt
+import json
+import multiprocessing as mp
+import os
+import platform
+import time
+import traceback
+from pathlib import Path
+
+from tsad_drake.bench.metrics import summarise
+
+#: keys that identify a bench run; rows from another run are never mixed in on resume
+SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
+             "closed_loop")
+
+
+@dc.dataclass(frozen=True)
+class EpisodeSpec:
+    """One episode to run."""
+
+    scenario: str  #: built-in name or YAML path
+    seed: int
+    planner: str
+    feasibility: str
+    ablation: str = "none"  #: none | no-ro | no-re (TSAD reward ablations)
+    observer: str = "raycast"  #: raycast (NumPy) | drake (VTK station renders)
+    occluded: bool = False
+    closed_loop: bool = True
+
+    def key(self) -> tuple:
+        return tuple(getattr(self, k) for k in SPEC_KEYS)
+
+
+def run_spec(spec: EpisodeSpec) -> dict:
+    """Run one episode; never raises (an exception becomes a failure row)."""
+    t0 = time.perf_counter()
+    try:
+        from tsad_drake.bench.episodes import run_named_episode
+
+        row = run_named_episode(spec)
+    except Exception as err:  # recorded, never fatal to the bench
+        row = {"success": False, "failure_reason": f"error: {type(err).__name__}: {err}",
+               "num_actions": 0, "falls": 0, "planning_time_s": 0.0,
+               "traceback": traceback.format_exc(limit=6)}
+    row.update({k: getattr(spec, k) for k in SPEC_KEYS})
+    row["seed"] = spec.seed
+    row["wall_time_s"] = time.perf_counter() - t0
+    return row
+
+
+def machine_info() -> dict:
+    return {"host_cpus": os.cpu_count(), "platform": platform.platform(),
+            "processor": platform.processor() or platform.machine(),
+            "python": platform.python_version(),
+            "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
+
+
+def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
+    if not path.exists():
+        return {}
+    wanted = specs[0].key()
+    done = {}
+    for line in path.read_text().splitlines():
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue  # a line cut off by an interruption
+        if tuple(row.get(k) for k in SPEC_KEYS) == wanted:
+            done[row["seed"]] = row
+    return done
+
+
+def _init_worker() -> None:
+    os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    try:
+        import torch
+
+        torch.set_num_threads(1)
+    except ImportError:
+        pass
+
+
+def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
+              progress: bool = True) -> dict:
+    """Run `specs` (same settings, different seeds), streaming rows; return the result document."""
+    from tqdm import tqdm
+
+    rows_path = out.with_name(out.name + ".rows.jsonl")
+    done = _load_rows(rows_path, specs)
+    todo = [s for s in specs if s.seed not in done]
+    bar = tqdm(total=len(specs), initial=len(specs) - len(todo), disable=not progress,
+               desc=f"{specs[0].planner} s{specs[0].scenario}", unit="ep")
+
+    def record(row: dict) -> None:
+        done[row["seed"]] = row
+        with rows_path.open("a") as f:
+            f.write(json.dumps(row) + "\n")
+        ok = sum(r["success"] for r in done.values())
+        bar.set_postfix(success=f"{ok}/{len(done)}")
+        bar.update(1)
+
+    if workers <= 1:
+        _init_worker()
+        for spec in todo:
+            record(run_spec(spec))
+    else:
+        ctx = mp.get_context("spawn")
+        with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                    initializer=_init_worker) as pool:
+            futures = [pool.submit(run_spec, s) for s in todo]
+            for fut in cf.as_completed(futures):
+                record(fut.result())
+    bar.close()
+    rows = [done[s.seed] for s in specs]
+    document = {"spec": {k: getattr(specs[0], k) for k in SPEC_KEYS},
+                "seeds": [s.seed for s in specs], "machine": machine_info(),
+                "summary": summarise(rows), "rows": rows}
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_text(json.dumps(document, indent=1))
+    tmp.replace(out)
+    return document
