@@ -64,7 +64,7 @@ def machine_info() -> dict:
     return {"host_cpus": os.cpu_count(), "platform": platform.platform(),
             "processor": platform.processor() or platform.machine(),
             "python": platform.python_version(),
-            "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
+            "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")}
 
 
 def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
