@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow bench lint clean
+.PHONY: all setup system-deps demo test test-slow bench report lint clean
 
 all: test
 
@@ -40,6 +40,30 @@ test: setup
 
 test-slow: setup
 	$(VENV)/bin/pytest -q -m slow
+
+# The paper's Tables I-III: 30 episodes per scenario and planner, reward ablations on scenario 1,
+# occluded targets (15 episodes) on scenarios 1 and 2. Interrupted runs resume where they stopped.
+BENCH_EPISODES ?= 30
+BENCH_WORKERS ?= 2
+BENCH_FEASIBILITY ?= geometric
+BENCH_DIR := results/bench
+TSAD := $(VENV)/bin/tsad
+bench: setup
+	mkdir -p $(BENCH_DIR)
+	for s in 1 2 3; do for p in tsad gp3 rots rots-star optimal; do \
+	  f=$(BENCH_FEASIBILITY); [ $$p = optimal ] && f=oracle; \
+	  $(TSAD) bench --scenario $$s --planner $$p --feasibility $$f --episodes $(BENCH_EPISODES) \
+	    --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s$$s-$$p.json || exit 1; done; done
+	for a in no-ro no-re; do \
+	  $(TSAD) bench --scenario 1 --planner tsad --ablation $$a --feasibility $(BENCH_FEASIBILITY) \
+	    --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s1-tsad-$$a.json || exit 1; done
+	for s in 1 2; do \
+	  $(TSAD) bench --scenario $$s --planner tsad --occluded --feasibility $(BENCH_FEASIBILITY) \
+	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s$$s-tsad-occluded.json || exit 1; done
+	$(MAKE) report
+
+report: setup
+	$(TSAD) report $(BENCH_DIR)/*.json --out results/RESULTS.md
 
 lint: setup
 	$(VENV)/bin/ruff check tsad_drake tests

@@ -78,10 +78,10 @@ def _validate_common(args: argparse.Namespace) -> None:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    _validate_common(args)
     from tsad_drake.bench.episodes import EpisodeSettings, run_episode_for_cli
     from tsad_drake.cli import prepare_out_dir, resolve_scenario
 
-    _validate_common(args)
     scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     out = prepare_out_dir(args.out)
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
