@@ -140,3 +140,53 @@ def side_wall_polygons(depth: float, width: float, thickness: float) -> list[np.
         yc = side * (width / 2 + thickness / 2)
         walls.append(footprint_polygon("box", (depth + thickness, thickness), depth / 2, yc, 0.0))
     return walls
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull (K, 2) of planar points (Qhull; degenerate sets as they are)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    pts = np.unique(np.asarray(points, dtype=float)[:, :2], axis=0)
+    if len(pts) < 3:
+        return pts
+    try:
+        return pts[ConvexHull(pts).vertices]  # counter-clockwise in 2-D
+    except QhullError:  # collinear: the two extreme points
+        d = pts - pts.mean(axis=0)
+        axis = np.linalg.svd(d, full_matrices=False)[2][0]
+        proj = d @ axis
+        return pts[[int(np.argmin(proj)), int(np.argmax(proj))]]
+
+
+def pad_polygons(polygons: list[np.ndarray]) -> np.ndarray:
+    """Stack polygons into (N, K, 2), repeating each one's last vertex (a zero-length edge)."""
+    k = max(len(p) for p in polygons)
+    out = np.empty((len(polygons), k, 2))
+    for i, p in enumerate(polygons):
+        out[i, :len(p)] = p
+        out[i, len(p):] = p[-1]
+    return out
+
+
+def _batch_normals(polys: np.ndarray) -> np.ndarray:
+    edges = np.roll(polys, -1, axis=-2) - polys
+    normals = np.stack([edges[..., 1], -edges[..., 0]], axis=-1)
+    length = np.linalg.norm(normals, axis=-1, keepdims=True)
+    return np.where(length > 1e-12, normals / np.maximum(length, 1e-12), 0.0)
+
+
+def convex_polygons_overlap_pairs(a: np.ndarray, b: np.ndarray, margin: float = 0.0) -> np.ndarray:
+    """Batched separating-axis test: (P,) True where polygon a[p] meets b[p] (or is within margin).
+
+    a: (P, Ka, 2), b: (P, Kb, 2), both counter-clockwise convex and padded as by `pad_polygons`.
+    With margin 0 this is exactly `convex_polygons_overlap`; with a margin it is conservative at
+    corners (it may report contact for polygons slightly farther apart than `margin`).
+    """
+    separated = np.zeros(a.shape[0], dtype=bool)
+    for normals in (_batch_normals(a), _batch_normals(b)):  # (P, K, 2)
+        pa = np.einsum("pvd,pkd->pvk", a, normals)
+        pb = np.einsum("pvd,pkd->pvk", b, normals)
+        gap = np.maximum(pa.min(axis=1) - pb.max(axis=1), pb.min(axis=1) - pa.max(axis=1))
+        useful = np.any(normals != 0.0, axis=-1)
+        separated |= np.any((gap > margin) & useful, axis=1)
+    return ~separated

@@ -37,6 +37,17 @@ class PlanObject:
     x: float  #: m
     y: float  #: m
     yaw: float  #: rad
+    #: (x, y, yaw) as perceived; kept by the simulation so a model can recover the motion since
+    origin: tuple[float, float, float] | None = None
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        return (self.x, self.y, self.yaw)
+
+    @property
+    def moved(self) -> bool:
+        """True when the simulation has moved this object since it was perceived."""
+        return self.origin is not None and self.origin != self.pose
 
 
 @dc.dataclass(frozen=True)
@@ -45,6 +56,10 @@ class PlanningState:
 
     objects: tuple[PlanObject, ...]
     target: str
+
+    def key(self) -> tuple:
+        """Hashable identity of the state (states are immutable): target and object poses."""
+        return (self.target,) + tuple((o.name, o.x, o.y, o.yaw) for o in self.objects)
 
     def index(self, name: str) -> int:
         for i, obj in enumerate(self.objects):

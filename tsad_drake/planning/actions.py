@@ -1,0 +1,86 @@
+"""Pick-and-place actions: theta_pick / theta_place from a feasibility model (paper IV-D), action sets.
+
+The search picks {n, x, y}; theta_pick is an angle where object n is pickable in s (nearest the
+preferred angle, the retrieval angle or 0), theta_place one where the moved object is pickable in
+the next state s' (least rotation). Models with a batched `place_options` (the footprint models)
+answer all cells at once; any other FeasibilityModel is asked state by state through the
+point-cloud simulation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tsad_drake.planning.feasibility import approach_order
+from tsad_drake.planning.pointcloud_sim import placement_valid, simulate_pick_place
+from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
+
+#: m, a placement this close to the object's current centre is no move at all
+SAME_PLACE = 0.01
+
+
+def choose_theta_pick(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                      workspace: Workspace, prefer: float = 0.0) -> float | None:
+    """An angle at which object `index` is pickable in `state` (nearest `prefer`), else None."""
+    ok = feasibility.pickable(state, index)
+    for k in approach_order(workspace.approach_angles, prefer):
+        if ok[k]:
+            return float(workspace.approach_angles[k])
+    return None
+
+
+def place_options(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                  theta_pick: float, workspace: Workspace) -> np.ndarray:
+    """(C,) theta_place per grid cell for object `index` picked at theta_pick (nan: cell invalid)."""
+    batched = getattr(feasibility, "place_options", None)
+    if batched is not None:
+        return batched(state, index, theta_pick)
+    name = state.objects[index].name
+    thetas = workspace.approach_angles
+    result = np.full(len(workspace.cell_centres), np.nan)
+    for c, (x, y) in enumerate(workspace.cell_centres):
+        for k in approach_order(thetas, theta_pick):
+            rotation = thetas[k] - theta_pick
+            if not placement_valid(state, index, x, y, rotation, workspace):
+                continue
+            nxt = simulate_pick_place(state, Action(name, theta_pick, x, y, float(thetas[k])))
+            if feasibility.pickable(nxt, index)[k]:
+                result[c] = thetas[k]
+                break
+    return result
+
+
+def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                   workspace: Workspace, prefer: float = 0.0) -> list[Action]:
+    """Every feasible pick-and-place of object `index` to a grid cell (cell order)."""
+    theta_pick = choose_theta_pick(feasibility, state, index, workspace, prefer)
+    if theta_pick is None:
+        return []
+    obj = state.objects[index]
+    options = place_options(feasibility, state, index, theta_pick, workspace)
+    actions = []
+    for c in np.nonzero(np.isfinite(options))[0]:
+        x, y = workspace.cell_centres[c]
+        if np.hypot(x - obj.x, y - obj.y) < SAME_PLACE:
+            continue
+        actions.append(Action(obj.name, theta_pick, float(x), float(y), float(options[c])))
+    return actions
+
+
+def legal_actions(feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,
+                  prefer: float = 0.0, movable: list[int] | None = None) -> list[Action]:
+    """All feasible actions {n, x, y} in `state` (the target is never relocated)."""
+    if movable is None:
+        movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
+    return [a for i in movable for a in object_actions(feasibility, state, i, workspace, prefer)]
+
+
+def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,
+                  rng: np.random.Generator, prefer: float = 0.0) -> Action | None:
+    """A uniformly random feasible action (random object, then random valid cell), or None."""
+    movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
+    for i in rng.permutation(movable):
+        actions = object_actions(feasibility, state, int(i), workspace, prefer)
+        if actions:
+            return actions[int(rng.integers(len(actions)))]
+    return None

@@ -1,0 +1,81 @@
+"""Symbolic planning state from perception: the workspace grid, objects as point clouds, epsilon_s.
+
+Nothing here reads true shapes: a `Workspace` holds the shelf size, the placement grid and the
+gripper numbers; a `PlanningState` holds what perception delivered.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tsad_drake.perception.types import PerceivedScene
+from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
+from tsad_drake.scenario import Scenario
+
+#: m, d_min: a grid cell is empty when no object point lies this close to its centre (in xy)
+DEFAULT_MIN_EMPTY_DISTANCE = 0.035
+
+
+def grid_cell_centres(depth: float, width: float, cells_x: int, cells_y: int,
+                      margin: float) -> np.ndarray:
+    """(Gx*Gy, 2) centres of a Gx x Gy grid over [margin, depth-margin] x [-w/2+margin, w/2-margin].
+
+    Ordered x-major (row k*Gy + j is cell (k, j)), so the order is fixed for a seed-stable search.
+    """
+    xs = margin + (np.arange(cells_x) + 0.5) * (depth - 2 * margin) / cells_x
+    ys = -width / 2 + margin + (np.arange(cells_y) + 0.5) * (width - 2 * margin) / cells_y
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+def make_workspace(scenario: Scenario,
+                   min_empty_distance: float = DEFAULT_MIN_EMPTY_DISTANCE) -> Workspace:
+    """The planner's fixed facts of `scenario`'s shelf: grid cell centres, angles, gripper, d_min."""
+    shelf, grid, gripper = scenario.shelf, scenario.grid, scenario.gripper
+    return Workspace(
+        depth=shelf.depth, width=shelf.width, wall_thickness=shelf.wall_thickness,
+        approach_angles=np.sort(scenario.approach_angles),
+        cell_centres=grid_cell_centres(shelf.depth, shelf.width, grid.cells_x, grid.cells_y,
+                                       grid.margin),
+        stroke=gripper.stroke, grasp_margin=gripper.grasp_margin,
+        swept_half_width=gripper.swept_half_width, finger_reach=gripper.finger_reach,
+        min_empty_distance=min_empty_distance)
+
+
+def state_from_perception(scene: PerceivedScene) -> PlanningState:
+    """PlanningState of a perceived scene; `target` is "" when the target was not seen."""
+    objects = []
+    for o in scene.objects:
+        points = np.array(o.points, dtype=float, copy=True)
+        points.setflags(write=False)
+        pose = (float(o.x), float(o.y), float(o.yaw))
+        objects.append(PlanObject(o.name, points, *pose, origin=pose))
+    return PlanningState(tuple(objects), scene.target or "")
+
+
+def completed_footprint_points(obj: PlanObject) -> np.ndarray:
+    """(2P, 2) xy points of `obj` plus their reflection through its estimated centre.
+
+    Cylinders and boxes are centrally symmetric about their centre, so the reflection of the
+    front-side points recovers the unseen back half of the footprint.
+    """
+    xy = obj.points[:, :2]
+    return np.concatenate([xy, 2.0 * np.array([obj.x, obj.y]) - xy])
+
+
+def occupied_cells(points_xy: np.ndarray, cell_centres: np.ndarray,
+                   min_empty_distance: float) -> np.ndarray:
+    """(C,) True for the cells with at least one of `points_xy` within d_min of their centre."""
+    if len(points_xy) == 0:
+        return np.zeros(len(cell_centres), dtype=bool)
+    d2 = np.sum((cell_centres[:, None, :] - points_xy[None, :, :]) ** 2, axis=2)
+    return np.any(d2 < min_empty_distance ** 2, axis=1)
+
+
+def empty_cell_count(state: PlanningState, workspace: Workspace) -> int:
+    """epsilon_s: the number of grid cells with no (completed) object point within d_min."""
+    occupied = np.zeros(len(workspace.cell_centres), dtype=bool)
+    for obj in state.objects:
+        occupied |= occupied_cells(completed_footprint_points(obj), workspace.cell_centres,
+                                   workspace.min_empty_distance)
+    return int(len(occupied) - occupied.sum())
