@@ -71,15 +71,24 @@ def perceive(views: list[View], intrinsics: np.ndarray, scenario: Scenario,
 
 
 def observe_raycast(scenario: Scenario, camera: CameraConfig | None = None,
-                    segmentation: str = "label",
-                    config: PerceptionConfig | None = None) -> Observation:
-    """Observe `scenario` from every approach angle with the NumPy ray caster (no Drake)."""
+                    segmentation: str = "label", config: PerceptionConfig | None = None,
+                    depth_noise: float = 0.0, noise_seed: int = 0) -> Observation:
+    """Observe `scenario` from every approach angle with the NumPy ray caster (no Drake).
+
+    Args:
+        depth_noise: m, standard deviation of Gaussian noise added to every finite depth reading
+            (0: the exact ray-cast depth), to measure robustness against a real sensor.
+        noise_seed: seed of that noise.
+    """
     camera = camera or CameraConfig()
     prisms = scenario_prisms(scenario)
+    rng = np.random.default_rng(noise_seed)
     views = []
     for theta in scenario.approach_angles:
         X_SC = camera_pose(scenario.shelf, camera, float(theta))
         depth, label = raycast(prisms, camera, X_SC)
+        if depth_noise > 0:
+            depth = depth + rng.normal(0.0, depth_noise, depth.shape)
         views.append(View(float(theta), depth.astype(np.float32), label, X_SC))
     return perceive(views, camera.intrinsics(), scenario, segmentation, config)
 

@@ -29,7 +29,7 @@ class PoseConfig:
     min_box_side: float = 0.04  #: m, smallest plausible box side (shorter extents are completed)
     square_below: float = 0.065  #: m, a footprint with both extents below this is taken as square
     yaw_step_deg: float = 1.0  #: deg, coarse yaw search step of the rectangle fit
-    circle_preference: float = 1.2  #: circle wins when its rms < this x the rectangle's rms
+    circle_preference: float = 0.6  #: circle wins when its rms < this x the rectangle's rms
     min_side_points: int = 8  #: fewer side points than this: fit all points instead
 
 
@@ -59,6 +59,9 @@ def fit_circle(xy: np.ndarray, min_radius: float, max_radius: float, iterations:
     sol, *_ = np.linalg.lstsq(A, b, rcond=None)
     centre = sol[:2]
     radius = float(np.sqrt(max(sol[2] + centre @ centre, 1e-12)))
+    spread = np.linalg.svd(q, compute_uv=False) if len(q) >= 2 else np.zeros(2)
+    if spread[-1] <= 1e-6 * max(spread[0], 1e-12):  # collinear: an infinitely large circle
+        radius = np.inf
     fixed = None
     if not min_radius < radius < max_radius:
         fixed = float(np.clip(radius, min_radius, max_radius))
@@ -85,12 +88,20 @@ def fit_circle(xy: np.ndarray, min_radius: float, max_radius: float, iterations:
     return centre + mean, float(radius), rms
 
 
+def _robust_bounds(values: np.ndarray) -> tuple[float, float]:
+    """Extent of noisy samples: 1st and 99th percentiles (min/max without noise outliers)."""
+    lo, hi = np.percentile(values, [1.0, 99.0])
+    return float(lo), float(hi)
+
+
 def _rect_cost(xy: np.ndarray, yaw: float) -> float:
-    """Mean distance of points to the nearest edge of their bounding rectangle at `yaw`."""
+    """RMS distance of points to the nearest edge of their (robust) bounding rectangle at `yaw`."""
     c, s = np.cos(yaw), np.sin(yaw)
     u = xy @ np.array([c, s])
     v = xy @ np.array([-s, c])
-    d = np.minimum(np.minimum(u - u.min(), u.max() - u), np.minimum(v - v.min(), v.max() - v))
+    (u0, u1), (v0, v1) = _robust_bounds(u), _robust_bounds(v)
+    d = np.minimum(np.minimum(np.abs(u - u0), np.abs(u1 - u)),
+                   np.minimum(np.abs(v - v0), np.abs(v1 - v)))
     return float(np.sqrt(np.mean(d ** 2)))
 
 
@@ -122,7 +133,7 @@ def box_footprint(points: np.ndarray, yaw: float, config: PoseConfig
     c, s = np.cos(yaw), np.sin(yaw)
     axis_u, axis_v = np.array([c, s]), np.array([-s, c])
     u, v = points[:, :2] @ axis_u, points[:, :2] @ axis_v
-    (u0, u1), (v0, v1) = (u.min(), u.max()), (v.min(), v.max())
+    (u0, u1), (v0, v1) = _robust_bounds(u), _robust_bounds(v)
     want_u = max(u1 - u0, config.min_box_side)
     want_v = max(v1 - v0, config.min_box_side)
     if max(want_u, want_v) < config.square_below:

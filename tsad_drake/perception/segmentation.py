@@ -14,6 +14,7 @@ Two modes:
 from __future__ import annotations
 
 import dataclasses as dc
+import itertools
 
 import numpy as np
 
@@ -40,8 +41,12 @@ class ClusterConfig:
     min_points: int = 3  #: DBSCAN core-point neighbour count
     min_cluster_points: int = 25  #: clusters smaller than this are dropped as noise
     min_cluster_height: float = 0.02  #: m, clusters shorter than this are dropped
-    height_step: float = 0.025  #: m, a jump in top height this large inside a cluster splits it
+    height_step: float = 0.02  #: m, touching objects whose tops differ this much are split
     split_cell: float = 0.004  #: m, grid cell used to find the top height across a cluster
+    cap_band: float = 0.006  #: m, points this close below a part's top form its top cap
+    min_cap_cells: int = 20  #: a part needs a top cap over this many grid cells to stand alone
+    fragment_points: int = 150  #: capless parts smaller than this are fragments of a neighbour
+    merge_distance: float = 0.010  #: m, a fragment this close (in xy) to a part joins it
 
 
 def segment_by_label(cloud: LabelledCloud, names: list[str], target_label: int | None,
@@ -68,30 +73,64 @@ def _dbscan(points: np.ndarray, eps: float, min_points: int) -> np.ndarray:
     return np.asarray(pcd.cluster_dbscan(eps=eps, min_points=min_points, print_progress=False))
 
 
-def _split_by_height(points: np.ndarray, config: ClusterConfig) -> np.ndarray:
-    """Sub-cluster ids for one xy cluster: split where two touching objects differ in height.
+def _height_levels(points: np.ndarray, config: ClusterConfig) -> np.ndarray:
+    """Height level per point of one xy cluster: split where touching objects differ in height.
 
-    The top height is taken per xy grid cell; cells are grouped into height levels (a sorted
-    gap of at least `height_step` separates levels) and each point takes the level of its cell.
-    A split is kept only when every part is big enough to be an object.
+    Each point takes the top height of its xy grid cell (sides and cap of an object share the
+    object's top). Cell tops are chained into groups (sorted tops closer than half a height step);
+    groups with too few points are stragglers, and the remaining groups become levels when their
+    tops lie at least `height_step` apart. Points get the level their cell top falls into.
     """
     cells = np.floor(points[:, :2] / config.split_cell).astype(np.int64)
-    _, cell_of, = np.unique(cells, axis=0, return_inverse=True)[:2]
-    cell_of = cell_of.ravel()
+    cell_of = np.unique(cells, axis=0, return_inverse=True)[1].ravel()
     top = np.full(cell_of.max() + 1, -np.inf)
     np.maximum.at(top, cell_of, points[:, 2])
-    levels_sorted = np.sort(np.unique(np.round(top, 4)))
-    gaps = np.flatnonzero(np.diff(levels_sorted) >= config.height_step)
-    if len(gaps) == 0:
-        return np.zeros(len(points), dtype=int)
-    thresholds = (levels_sorted[gaps] + levels_sorted[gaps + 1]) / 2
-    level = np.searchsorted(thresholds, top[cell_of])
-    # only the upper part of a cell column belongs to a taller object: low points stay ambiguous,
-    # so each point is assigned by the level of its own cell's top (sides and caps move together)
-    sizes = np.bincount(level)
-    if (sizes[sizes > 0] < config.min_cluster_points).any():
-        return np.zeros(len(points), dtype=int)
-    return level
+    point_top = top[cell_of]
+    order = np.sort(point_top)
+    breaks = np.flatnonzero(np.diff(order) >= config.height_step / 2)
+    groups = np.split(order, breaks + 1)
+    kept = [g for g in groups if len(g) >= config.min_cluster_points]
+    thresholds = [(low.max() + high.min()) / 2 for low, high in itertools.pairwise(kept)
+                  if high.min() - low.max() >= config.height_step / 2
+                  and np.median(high) - np.median(low) >= config.height_step]
+    return np.searchsorted(np.asarray(thresholds), point_top)
+
+
+def _has_cap(points: np.ndarray, config: ClusterConfig) -> bool:
+    """Whether the points include a top cap: an area of points near their top height."""
+    cap = points[points[:, 2] >= points[:, 2].max() - config.cap_band]
+    cells = np.unique(np.floor(cap[:, :2] / config.split_cell).astype(np.int64), axis=0)
+    return len(cells) >= config.min_cap_cells
+
+
+def _split_touching(points: np.ndarray, members: np.ndarray, config: ClusterConfig
+                    ) -> list[np.ndarray]:
+    """Split one xy cluster into objects of distinct heights (indices into `points`).
+
+    Each height level is re-clustered in xy (its objects may only touch through another object);
+    the split is kept only when at least two parts show a top cap, and capless parts (occluded
+    fragments of a side) join the capped part nearest to them in the floor plane.
+    """
+    from scipy.spatial import cKDTree
+
+    level = _height_levels(points[members], config)
+    if level.max() == 0:
+        return [members]
+    parts = []
+    for lv in np.unique(level):
+        sub = members[level == lv]
+        sub_ids = _dbscan(np.c_[points[sub, :2], np.zeros(len(sub))], config.eps,
+                          config.min_points)
+        parts += [sub[sub_ids == k] for k in range(sub_ids.max() + 1)]
+    capped = [p for p in parts if len(p) >= config.min_cluster_points
+              and _has_cap(points[p], config)]
+    if len(capped) < 2:
+        return [members]
+    owner = np.concatenate([np.full(len(p), k) for k, p in enumerate(capped)])
+    tree = cKDTree(points[np.concatenate(capped), :2])
+    rest = np.setdiff1d(members, np.concatenate(capped))
+    nearest = owner[tree.query(points[rest, :2])[1]] if len(rest) else np.zeros(0, dtype=int)
+    return [np.sort(np.concatenate([p, rest[nearest == k]])) for k, p in enumerate(capped)]
 
 
 def cluster_cloud(cloud: LabelledCloud, config: ClusterConfig | None = None) -> np.ndarray:
@@ -105,23 +144,49 @@ def cluster_cloud(cloud: LabelledCloud, config: ClusterConfig | None = None) -> 
     """
     config = config or ClusterConfig()
     points = cloud.points
-    flat = np.c_[points[:, :2], np.zeros(len(points))]
-    coarse = _dbscan(flat, config.eps, config.min_points)
+    coarse = _dbscan(np.c_[points[:, :2], np.zeros(len(points))], config.eps, config.min_points)
+    parts = []
+    for c in range(coarse.max() + 1 if len(coarse) else 0):
+        parts += _split_touching(points, np.flatnonzero(coarse == c), config)
+    parts = _absorb_fragments(points, parts, config)
     ids = np.full(len(points), -1, dtype=int)
     next_id = 0
-    for c in range(coarse.max() + 1 if len(coarse) else 0):
-        members = np.flatnonzero(coarse == c)
-        if len(members) < config.min_cluster_points:
+    for part in parts:
+        z = points[part, 2]
+        if len(part) < config.min_cluster_points or z.max() - z.min() < config.min_cluster_height:
             continue
-        sub = _split_by_height(points[members], config)
-        for s in np.unique(sub):
-            part = members[sub == s]
-            z = points[part, 2]
-            if len(part) < config.min_cluster_points or z.max() - z.min() < config.min_cluster_height:
-                continue
-            ids[part] = next_id
-            next_id += 1
+        ids[part] = next_id
+        next_id += 1
     return ids
+
+
+def _absorb_fragments(points: np.ndarray, parts: list[np.ndarray], config: ClusterConfig
+                      ) -> list[np.ndarray]:
+    """Merge small capless parts (side slivers cut off by sparse sampling) into the nearest part.
+
+    A fragment joins the nearest capped part when it lies within `merge_distance` of it in the
+    floor plane; otherwise it stays as it is (and is dropped later if too small).
+    """
+    from scipy.spatial import cKDTree
+
+    is_fragment = [len(p) < config.fragment_points and not _has_cap(points[p], config)
+                   for p in parts]
+    whole = [p for p, frag in zip(parts, is_fragment, strict=True) if not frag]
+    if not whole or all(not f for f in is_fragment):
+        return parts
+    owner = np.concatenate([np.full(len(p), k) for k, p in enumerate(whole)])
+    tree = cKDTree(points[np.concatenate(whole), :2])
+    merged = [list(p) for p in whole]
+    kept = []
+    for p, frag in zip(parts, is_fragment, strict=True):
+        if not frag:
+            continue
+        dist, nearest = tree.query(points[p, :2])
+        if dist.min() <= config.merge_distance:
+            merged[owner[nearest[int(np.argmin(dist))]]] += list(p)
+        else:
+            kept.append(p)
+    return [np.sort(np.asarray(m, dtype=int)) for m in merged] + kept
 
 
 def segment_by_cluster(cloud: LabelledCloud, target_label: int | None,
