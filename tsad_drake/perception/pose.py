@@ -89,8 +89,8 @@ def fit_circle(xy: np.ndarray, min_radius: float, max_radius: float, iterations:
 
 
 def _robust_bounds(values: np.ndarray) -> tuple[float, float]:
-    """Extent of noisy samples: 1st and 99th percentiles (min/max without noise outliers)."""
-    lo, hi = np.percentile(values, [1.0, 99.0])
+    """Extent of noisy samples: 0.5th and 99.5th percentiles (min/max without noise outliers)."""
+    lo, hi = np.percentile(values, [0.5, 99.5])
     return float(lo), float(hi)
 
 
