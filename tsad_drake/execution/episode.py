@@ -1,0 +1,188 @@
+"""One target-retrieval episode: observe, plan, execute in the world model, repeat.
+
+Closed loop (the paper's section IV-D): execute only the first sub-search's actions, observe again
+and plan again, until the target comes out, the episode fails, or a limit is hit. Open loop:
+execute the whole plan once. When the target is not seen (section VI-D), feasible random
+relocations (seeded) are made until it is, counted apart as random actions.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from tsad_drake.execution.world import WorldModel
+from tsad_drake.perception.types import PerceivedScene
+from tsad_drake.planning.actions import random_action
+from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.planning.pointcloud_sim import simulate_pick_place
+from tsad_drake.planning.state import make_workspace, state_from_perception
+from tsad_drake.planning.types import Action, Plan, PlanningState
+from tsad_drake.scenario import Scenario
+
+#: default limit on pick-and-places in one episode (random ones included)
+DEFAULT_MAX_ACTIONS = 20
+
+
+def action_record(action: Action, true_name: str = "") -> dict:
+    """An action as plan.json writes it (degrees for angles)."""
+    return {"object": action.object, "true_object": true_name or action.object,
+            "theta_pick_deg": round(math.degrees(action.theta_pick), 6),
+            "place_xy": [round(action.x, 6), round(action.y, 6)],
+            "theta_place_deg": round(math.degrees(action.theta_place), 6),
+            "sub_search": action.sub_search}
+
+
+@dc.dataclass
+class EpisodeResult:
+    """Everything an episode did and what `plan.json` needs."""
+
+    scenario: str
+    seed: int
+    planner: str
+    feasibility: str
+    success: bool = False
+    num_actions: int = 0  #: planned pick-and-places executed plus the final retrieval
+    random_actions: int = 0  #: random relocations while the target was unseen
+    relocations: int = 0
+    falls: int = 0
+    fallen: list[str] = dc.field(default_factory=list)
+    failure_reason: str = ""
+    planning_time_s: float = 0.0  #: s, summed over every planner call
+    theta_star_deg: float | None = None  #: retrieval angle of the last plan
+    actions: list[dict] = dc.field(default_factory=list)  #: executed actions, in order
+    rounds: list[dict] = dc.field(default_factory=list)  #: per plan: claim vs outcome, stats
+    closed_loop: bool = True
+
+    def to_json(self) -> dict:
+        """A JSON-ready dict (the plan.json fields first)."""
+        return dc.asdict(self)
+
+
+def _round_record(plan: Plan, executed: int, world: WorldModel) -> dict:
+    return {"planner": plan.planner, "claimed_success": plan.success,
+            "claimed_actions": len(plan.actions), "executed_actions": executed,
+            "failure_reason": plan.failure_reason, "planning_time_s": plan.planning_time_s,
+            "theta_star_deg": None if plan.theta_star is None else math.degrees(plan.theta_star),
+            "retrievable_after": world.retrieval_angle() is not None and not world.failure,
+            "falls_after": len(world.fallen), "stats": _jsonable(plan.stats)}
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _true_name(world: WorldModel, sim: PlanningState, action: Action) -> str:
+    """The true object an action on a perceived object grasps (by name, else nearest centre)."""
+    try:
+        world.object(action.object)
+        return action.object
+    except KeyError:
+        obj = sim.objects[sim.index(action.object)]
+        return world.nearest(obj.x, obj.y)
+
+
+def _execute(world: WorldModel, state: PlanningState, actions: list[Action],
+             result: EpisodeResult) -> int:
+    """Apply `actions` in the world; returns how many were applied."""
+    sim = state
+    for n, action in enumerate(actions):
+        if world.done:
+            return n
+        name = _true_name(world, sim, action)
+        world.apply(dc.replace(action, object=name))
+        result.actions.append(action_record(action, name))
+        sim = simulate_pick_place(sim, action)
+    return len(actions)
+
+
+def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_name: str,
+                observe: Callable[[Scenario], PerceivedScene], config: Any, seed: int,
+                closed_loop: bool = True, max_actions: int = DEFAULT_MAX_ACTIONS,
+                planner_name: str = "") -> EpisodeResult:
+    """Run one episode of `planner` on `scenario` (see the module docstring).
+
+    Args:
+        scenario: the true scene (never shown to the planner; the oracle model reads it).
+        planner: `plan(state, feasibility, workspace, config, rng) -> Plan`.
+        feasibility_name: "oracle" | "geometric" (| "net").
+        observe: the current true scene -> what the robot perceives.
+        config: the planner's config.
+        seed: seeds the planner's and the random relocations' generator.
+        closed_loop: execute the first sub-search only, then observe and plan again; a planner
+            with a `max_sub_searches` config field is asked for that one sub-search only, and a
+            plan that stops short of the target is still executed when it has actions.
+        max_actions: pick-and-places allowed in the episode, random ones included (>= 1).
+        planner_name: recorded name (default: the first plan's `planner` field).
+    """
+    if max_actions < 1:
+        raise ValueError("max_actions must be at least 1")
+    rng = np.random.default_rng(seed)
+    if closed_loop and hasattr(config, "max_sub_searches"):
+        # the paper plans only the first sub-search per observation in closed loop
+        config = dc.replace(config, max_sub_searches=1)
+    world = WorldModel(scenario)
+    workspace = make_workspace(scenario)
+    result = EpisodeResult(scenario.name, seed, planner_name, feasibility_name,
+                           closed_loop=closed_loop)
+    reason = ""
+    while not world.done:
+        if world.num_actions >= max_actions:
+            reason = f"action limit {max_actions} reached"
+            break
+        truth = world.scenario()
+        state = state_from_perception(observe(truth))
+        feasibility = make_feasibility(feasibility_name, truth, workspace)
+        if not state.target:
+            action = random_action(feasibility, state, workspace, rng)
+            if action is None:
+                reason = "target unseen and nothing can be moved"
+                break
+            _execute(world, state, [action], result)
+            result.random_actions += 1
+            continue
+        plan = planner(state, feasibility, workspace, config, rng)
+        result.planning_time_s += plan.planning_time_s
+        result.planner = result.planner or plan.planner
+        if plan.theta_star is not None:
+            result.theta_star_deg = math.degrees(plan.theta_star)
+        if not plan.success and not (closed_loop and plan.actions):
+            reason = f"planning failed: {plan.failure_reason}"
+            result.rounds.append(_round_record(plan, 0, world))
+            break
+        if not plan.actions:
+            world.retrieve()
+            result.rounds.append(_round_record(plan, 0, world))
+            if not world.success:
+                reason = "target not retrievable although the plan claimed it"
+            break
+        todo = plan.actions
+        if closed_loop:
+            first = plan.actions[0].sub_search
+            todo = [a for a in plan.actions if a.sub_search == first]
+        todo = todo[:max_actions - world.num_actions]
+        executed = _execute(world, state, todo, result)
+        result.rounds.append(_round_record(plan, executed, world))
+        if not closed_loop and not world.done:
+            if not world.retrieve():
+                reason = "target not retrievable after the plan"
+            break
+    outcome = world.outcome(reason)
+    result.success = outcome.success
+    result.num_actions = outcome.num_actions - result.random_actions
+    result.relocations = outcome.relocations
+    result.falls = outcome.falls
+    result.fallen = list(world.fallen)
+    result.failure_reason = outcome.reason
+    return result
+

@@ -1,0 +1,378 @@
+"""TSAD: Tree Search with Approaching Direction (the paper's section IV).
+
+Stage 1 picks the retrieval angle theta* (`optimal_angle`, GP3's idea) and its smallest
+rearrangement set R = R_{theta*,s}. Stage 2 runs sequential sub-MCTS: each searches pick-and-place
+actions {n, x, y} from its root until a state s' with (1) some object of R no longer in R_{theta*,s'}
+and (2) no object outside R in it; s' is the next root, until R is empty.
+
+Each sub-MCTS: selection by Q = V(s') + c sqrt(2 ln N(s) / N(s')), expansion of an untried action,
+a random-policy rollout to d_max with feasibility checks, backpropagation of
+V(s) = max[R(s), max_child V(s') - alpha] with R(s) = r_t + w_o r_o + w_e r_e, and extraction of
+the plan along the highest-value children. theta_pick and theta_place come from the feasibility
+model (`actions.py`); next states from the point-cloud simulation.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from tsad_drake.planning.actions import choose_theta_pick, legal_actions, random_action
+from tsad_drake.planning.feasibility import approach_order
+from tsad_drake.planning.pointcloud_sim import simulate_pick_place
+from tsad_drake.planning.state import completed_footprint_points, occupied_cells
+from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
+
+
+@dc.dataclass
+class TSADConfig:
+    """Every constant of TSAD (paper values where it gives them)."""
+
+    iterations: int = 60  #: sub-MCTS iterations per sub-search
+    max_iterations: int = 240  #: iterations a sub-search may use while it has found no terminal state
+    exploration: float = 0.3  #: c, UCB exploration coefficient (dimensionless)
+    step_penalty: float = 0.1  #: alpha, value lost per action (dimensionless)
+    max_depth: int = 4  #: d_max, actions per sub-search (tree plus rollout)
+    w_o: float = 0.5  #: weight of r_o (new obstacle penalty)
+    w_e: float = 0.3  #: weight of r_e (empty cells)
+    empty_gain: float = 0.1  #: r_e gained per extra empty grid cell
+    empty_cap: float = 1.0  #: largest r_e
+    empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
+    widening: float | None = 3.0  #: children <= widening * sqrt(N(s)); None: expand all first
+    max_sub_searches: int = 12  #: sub-MCTS runs before giving up
+    time_budget_s: float = 30.0  #: s, wall-clock budget of one plan_tsad call
+    use_ro: bool = True  #: ablation: False drops r_o ("w/o r_o")
+    use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
+    max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
+    angle_fallbacks: int = 2  #: next-ranked angles tried when theta* yields no first sub-plan
+
+
+class EmptyCells:
+    """epsilon_s with per-object caching (an object's occupied cells depend only on its pose)."""
+
+    def __init__(self, workspace: Workspace) -> None:
+        self.workspace = workspace
+        self._cache: dict[tuple, np.ndarray] = {}
+
+    def __call__(self, state: PlanningState) -> int:
+        occupied = np.zeros(len(self.workspace.cell_centres), dtype=bool)
+        for obj in state.objects:
+            key = (obj.name, obj.pose, obj.origin, len(obj.points))
+            cells = self._cache.get(key)
+            if cells is None:
+                cells = occupied_cells(completed_footprint_points(obj), self.workspace.cell_centres,
+                                       self.workspace.min_empty_distance)
+                self._cache[key] = cells
+            occupied |= cells
+        return int(len(occupied) - occupied.sum())
+
+
+def reachable_angles(feasibility: FeasibilityModel, state: PlanningState, index: int) -> np.ndarray:
+    """(A,) angles at which object `index` could be picked if nothing stood in the way."""
+    reach = getattr(feasibility, "reachable", None)
+    if reach is not None:
+        return reach(state, index)
+    return np.ones(len(feasibility.pickable(state, index)), dtype=bool)
+
+
+def _without(state: PlanningState, names: set[str]) -> PlanningState:
+    return PlanningState(tuple(o for o in state.objects if o.name not in names), state.target)
+
+
+def removal_cost(state: PlanningState, feasibility: FeasibilityModel, k: int,
+                 max_removals: int) -> int | None:
+    """Objects a monotone (remove-only, GP3-style) sequence takes out to clear the target at angle k.
+
+    Greedy: a pickable member of R first, else a pickable object that blocks a member of R.
+    None when no such sequence of at most `max_removals` exists.
+    """
+    removed: set[str] = set()
+    current = state
+    while len(removed) <= max_removals:
+        t = current.target_index
+        blocking = sorted(feasibility.blockers(current, t)[k])
+        if not blocking:
+            return len(removed)
+        movable = [i for i in blocking if feasibility.pickable(current, i).any()]
+        if not movable:
+            in_the_way = set()
+            for i in blocking:
+                for row in feasibility.blockers(current, i):
+                    in_the_way |= row
+            movable = [j for j in sorted(in_the_way - {t})
+                       if feasibility.pickable(current, j).any()]
+        if not movable:
+            return None
+        removed.add(current.objects[movable[0]].name)
+        current = _without(state, removed)
+    return None
+
+
+def ranked_angles(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
+                  max_removals: int = 8) -> list[float]:
+    """Reachable retrieval angles, best first by (removable?, monotone removal cost, |R|, |theta|)."""
+    t = state.target_index
+    reach = reachable_angles(feasibility, state, t)
+    blockers = feasibility.blockers(state, t)
+    keyed = []
+    for k, theta in enumerate(workspace.approach_angles):
+        if reach[k]:
+            cost = removal_cost(state, feasibility, k, max_removals)
+            keyed.append(((cost is None, cost or 0, len(blockers[k]), abs(theta)), float(theta)))
+    return [theta for _, theta in sorted(keyed)]
+
+
+def optimal_angle(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
+                  max_removals: int = 8) -> float | None:
+    """theta*: the reachable angle whose smallest rearrangement set is smallest and removable.
+
+    GP3's idea with a greedy monotone removal in place of its tree search; angles whose set cannot
+    be removed come last. None when the target cannot be grasped at any angle (too wide, a wall).
+    Replaceable by the GP3 search (same signature).
+    """
+    ranked = ranked_angles(state, feasibility, workspace, max_removals)
+    return ranked[0] if ranked else None
+
+
+@dc.dataclass(eq=False)
+class Node:
+    """A search-tree node: a state reached from its parent by `action`."""
+
+    state: PlanningState
+    action: Action | None
+    parent: Node | None
+    depth: int
+    reward: float  #: R(s)
+    terminal: bool  #: r_t(s) = 1
+    value: float  #: V(s)
+    visits: int = 0
+    children: list[Node] = dc.field(default_factory=list)
+    untried: list[Action] | None = None  #: lazily enumerated, shuffled feasible actions
+    has_terminal: bool = False  #: a terminal state lies in this subtree
+    rollout_value: float = -math.inf  #: best value a rollout from here reached
+
+
+class SubSearch:
+    """One subgoal-conditioned MCTS from `root` toward removing a member of R_{theta*,root}."""
+
+    def __init__(self, root: PlanningState, theta_index: int, feasibility: FeasibilityModel,
+                 workspace: Workspace, config: TSADConfig, rng: np.random.Generator,
+                 empty_cells: EmptyCells, initial_empty: int) -> None:
+        self.feasibility, self.workspace, self.config, self.rng = feasibility, workspace, config, rng
+        self.k = theta_index
+        self.theta = float(workspace.approach_angles[theta_index])
+        self.empty_cells = empty_cells
+        self.target_set = self.rearrangement_set(root)
+        ref = empty_cells(root) if config.empty_reference == "sub_root" else initial_empty
+        self.reference_empty = ref
+        self.root = self.make_node(root, None, None)
+        self.iterations = 0
+        self.nodes = 1
+
+    def rearrangement_set(self, state: PlanningState) -> frozenset[str]:
+        """Names in R_{theta*,s} (names, so sets compare across states)."""
+        t = state.target_index
+        return frozenset(state.objects[i].name for i in self.feasibility.blockers(state, t)[self.k])
+
+    def reward(self, state: PlanningState) -> tuple[float, bool]:
+        """R(s) = r_t + w_o r_o + w_e r_e and whether s is terminal."""
+        cfg = self.config
+        current = self.rearrangement_set(state)
+        no_new = current <= self.target_set
+        terminal = no_new and bool(self.target_set - current)
+        reward = 1.0 if terminal else 0.0
+        if cfg.use_ro and not no_new:
+            reward -= cfg.w_o
+        if cfg.use_re:
+            gain = cfg.empty_gain * (self.empty_cells(state) - self.reference_empty)
+            reward += cfg.w_e * min(gain, cfg.empty_cap)
+        return reward, terminal
+
+    def make_node(self, state: PlanningState, action: Action | None, parent: Node | None) -> Node:
+        reward, terminal = self.reward(state)
+        depth = 0 if parent is None else parent.depth + 1
+        return Node(state, action, parent, depth, reward, terminal, reward, has_terminal=terminal)
+
+    def actions(self, node: Node) -> list[Action]:
+        if node.untried is None:
+            acts = legal_actions(self.feasibility, node.state, self.workspace, self.theta)
+            node.untried = [acts[i] for i in self.rng.permutation(len(acts))]
+        return node.untried
+
+    def can_expand(self, node: Node) -> bool:
+        if not self.actions(node):
+            return False
+        w = self.config.widening
+        return w is None or len(node.children) < max(1.0, w * math.sqrt(node.visits))
+
+    def select_child(self, node: Node) -> Node:
+        c = self.config.exploration
+        log_n = math.log(max(node.visits, 1))
+
+        def q(child: Node) -> float:
+            if child.visits == 0:
+                return math.inf
+            return child.value + c * math.sqrt(2.0 * log_n / child.visits)
+
+        return max(node.children, key=q)
+
+    def rollout(self, node: Node) -> list[Node]:
+        """Random feasible actions from `node` to d_max; the path if it reaches a terminal state."""
+        cfg = self.config
+        state, path_actions, best = node.state, [], -math.inf
+        for step in range(1, cfg.max_depth - node.depth + 1):
+            action = random_action(self.feasibility, state, self.workspace, self.rng, self.theta)
+            if action is None:
+                break
+            state = simulate_pick_place(state, action)
+            path_actions.append((action, state))
+            reward, terminal = self.reward(state)
+            best = max(best, reward - cfg.step_penalty * step)
+            if terminal:
+                node.rollout_value = max(node.rollout_value, best)
+                return self.materialise(node, path_actions)
+        node.rollout_value = max(node.rollout_value, best)
+        return []
+
+    def materialise(self, node: Node, path: list[tuple[Action, PlanningState]]) -> list[Node]:
+        """Add a rollout path that reached a terminal state to the tree (so it can be extracted)."""
+        added = []
+        for action, state in path:
+            child = self.make_node(state, action, node)
+            node.children.append(child)
+            if node.untried:
+                node.untried = [a for a in node.untried if (a.object, a.x, a.y) !=
+                                (action.object, action.x, action.y)]
+            added.append(child)
+            node = child
+        self.nodes += len(added)
+        return added
+
+    def backpropagate(self, leaf: Node) -> None:
+        alpha = self.config.step_penalty
+        node: Node | None = leaf
+        while node is not None:
+            node.visits += 1
+            value = max(node.reward, node.rollout_value)
+            if node.children and not node.terminal:
+                value = max(value, max(ch.value for ch in node.children) - alpha)
+                node.has_terminal = node.has_terminal or any(ch.has_terminal for ch in node.children)
+            node.value = node.reward if node.terminal else value
+            node = node.parent
+
+    def iterate(self) -> None:
+        """One selection-expansion-simulation-backpropagation pass."""
+        node = self.root
+        while not node.terminal and node.depth < self.config.max_depth:
+            if self.can_expand(node):
+                action = node.untried.pop()
+                child = self.make_node(simulate_pick_place(node.state, action), action, node)
+                node.children.append(child)
+                self.nodes += 1
+                node = child
+                if not child.terminal:
+                    added = self.rollout(child)
+                    if added:
+                        node = added[-1]
+                break
+            if not node.children:
+                break
+            node = self.select_child(node)
+        self.backpropagate(node)
+        self.iterations += 1
+
+    def run(self, deadline: float) -> list[Action] | None:
+        """Search until the iteration budget (extended while nothing terminal is found) or deadline."""
+        cfg = self.config
+        while time.perf_counter() < deadline:
+            if self.iterations >= cfg.max_iterations:
+                break
+            if self.iterations >= cfg.iterations and self.root.has_terminal:
+                break
+            self.iterate()
+            if not self.root.children and not self.actions(self.root):
+                break  # nothing can be moved at all
+        return self.extract()
+
+    def extract(self) -> list[Action] | None:
+        """Actions along the highest-value children that lead to a terminal state, or None."""
+        if not self.root.has_terminal:
+            return None
+        node, actions = self.root, []
+        while not node.terminal:
+            node = max((ch for ch in node.children if ch.has_terminal), key=lambda ch: ch.value)
+            actions.append(node.action)
+        self.terminal_state = node.state
+        return actions
+
+
+def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
+              config: TSADConfig, rng: np.random.Generator) -> Plan:
+    """TSAD's plan for taking `state.target` out (a failure result, never an exception or a hang)."""
+    start = time.perf_counter()
+    deadline = start + config.time_budget_s
+    name = "tsad" if config.use_ro and config.use_re else (
+        "tsad-no-ro" if config.use_re else "tsad-no-re" if config.use_ro else "tsad-no-ro-no-re")
+
+    def result(theta: float | None, actions: list[Action], success: bool, reason: str = "",
+               **stats) -> Plan:
+        return Plan(name, theta, actions, success, reason, time.perf_counter() - start, stats)
+
+    if not state.target or state.target not in [o.name for o in state.objects]:
+        return result(None, [], False, "target not observed")
+    t = state.target_index
+    pick_now = choose_theta_pick(feasibility, state, t, workspace, 0.0)
+    if pick_now is not None:
+        return result(pick_now, [], True, rearrangement_set_sizes=[0])
+    first = optimal_angle(state, feasibility, workspace, config.max_removals)
+    if first is None:
+        return result(None, [], False, "target cannot be grasped at any approach angle")
+    ranked = ranked_angles(state, feasibility, workspace, config.max_removals)
+    candidates = [first] + [theta for theta in ranked if theta != first][:config.angle_fallbacks]
+    plan = None
+    for theta_star in candidates:
+        plan = _sequential_sub_search(state, feasibility, workspace, config, rng, theta_star,
+                                      deadline, result)
+        if plan.success or plan.actions or time.perf_counter() >= deadline:
+            break
+    return plan
+
+
+def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
+                           workspace: Workspace, config: TSADConfig, rng: np.random.Generator,
+                           theta_star: float, deadline: float,
+                           result: Callable[..., Plan]) -> Plan:
+    """Stage 2 of TSAD for one retrieval angle: sub-MCTS after sub-MCTS until R is empty."""
+    t = state.target_index
+    k = int(approach_order(workspace.approach_angles, theta_star)[0])
+    empty_cells = EmptyCells(workspace)
+    initial_empty = empty_cells(state)
+    actions: list[Action] = []
+    sizes = [len(feasibility.blockers(state, t)[k])]
+    iterations, nodes = [], []
+    current = state
+    for sub in range(config.max_sub_searches):
+        if not feasibility.blockers(current, current.target_index)[k]:
+            break
+        search = SubSearch(current, k, feasibility, workspace, config, rng, empty_cells,
+                           initial_empty)
+        sub_actions = search.run(deadline)
+        iterations.append(search.iterations)
+        nodes.append(search.nodes)
+        stats = dict(rearrangement_set_sizes=sizes, iterations=iterations, nodes=nodes)
+        if sub_actions is None:
+            why = "time budget spent" if time.perf_counter() >= deadline else "no terminal state found"
+            return result(theta_star, actions, False, f"sub-search {sub}: {why}", **stats)
+        actions += [dc.replace(a, sub_search=sub) for a in sub_actions]
+        current = search.terminal_state
+        sizes.append(len(feasibility.blockers(current, current.target_index)[k]))
+    stats = dict(rearrangement_set_sizes=sizes, iterations=iterations, nodes=nodes)
+    if feasibility.blockers(current, current.target_index)[k]:
+        return result(theta_star, actions, False, "sub-search limit reached", **stats)
+    if not feasibility.pickable(current, current.target_index)[k]:
+        return result(theta_star, actions, False, "target still not pickable at theta*", **stats)
+    return result(theta_star, actions, True, **stats)
