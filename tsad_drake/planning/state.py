@@ -12,8 +12,9 @@ from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import Scenario
 
-#: m, d_min: a grid cell is empty when no object point lies this close to its centre (in xy)
-DEFAULT_MIN_EMPTY_DISTANCE = 0.035
+#: m, d_min: a grid cell is empty when no object point lies this close to its centre (in xy);
+#: about a typical object radius, so a cell counts as empty when an object could stand there
+DEFAULT_MIN_EMPTY_DISTANCE = 0.030
 
 
 def grid_cell_centres(depth: float, width: float, cells_x: int, cells_y: int,
