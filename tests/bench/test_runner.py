@@ -1,0 +1,60 @@
+"""Bench runner: rows stream, runs resume, episodes that raise become failure rows; report page."""
+
+import json
+
+from tsad_drake.bench.metrics import paper_table, summarise
+from tsad_drake.bench.report import write_report
+from tsad_drake.bench.runner import EpisodeSpec, run_bench
+
+
+def _specs(planner, seeds, feasibility="oracle"):
+    return [EpisodeSpec(scenario="1", seed=s, planner=planner, feasibility=feasibility)
+            for s in seeds]
+
+
+def test_resume_skips_finished_seeds_and_errors_are_rows(tmp_path):
+    out = tmp_path / "bench.json"
+    rows_path = tmp_path / "bench.json.rows.jsonl"
+    # a finished row from an "interrupted" earlier run, marked so we can see it is reused
+    earlier = {"scenario": "1", "planner": "no-such-planner", "feasibility": "oracle",
+               "ablation": "none", "observer": "raycast", "occluded": False, "closed_loop": True,
+               "seed": 0, "success": True, "num_actions": 3, "falls": 0,
+               "planning_time_s": 0.5, "marker": "reused"}
+    rows_path.write_text(json.dumps(earlier) + "\n" + '{"truncated": ')
+    document = run_bench(_specs("no-such-planner", [0, 1]), out, progress=False)
+    rows = {r["seed"]: r for r in document["rows"]}
+    assert rows[0]["marker"] == "reused"
+    assert not rows[1]["success"]
+    assert rows[1]["failure_reason"].startswith("error: ValueError: unknown planner")
+    assert document["summary"]["episodes"] == 2
+    assert document["summary"]["success_rate"] == 0.5
+    assert document["summary"]["errors"] == 1
+    assert json.loads(out.read_text())["summary"] == document["summary"]
+
+
+def test_real_episodes_and_report(tmp_path):
+    out = tmp_path / "s1-gp3.json"
+    document = run_bench(_specs("gp3", [0, 1]), out, progress=False)
+    for row in document["rows"]:
+        assert row["num_actions"] >= 1 and row["planner"] == "gp3"
+        assert row["initial_rearrangement_set_size"] >= 1
+        assert row["success"] == (row["failure_reason"] == "")
+    table = paper_table({"gp3": document["summary"]})
+    assert "Success Rate" in table and "Avg. of Falls" in table
+    page = tmp_path / "RESULTS.md"
+    write_report([document], page)
+    assert "## Scenario 1" in page.read_text()
+    assert page.with_suffix(".png").stat().st_size > 1000
+    assert "1" in json.loads(page.with_suffix(".json").read_text())
+
+
+def test_summary_separates_successful_and_all_episodes():
+    rows = [{"success": True, "num_actions": 3, "falls": 0, "planning_time_s": 1.0},
+            {"success": False, "num_actions": 7, "falls": 2, "planning_time_s": 3.0,
+             "failure_reason": "target fell"}]
+    s = summarise(rows)
+    assert s["success_rate"] == 0.5
+    assert s["actions_success"] == 3 and s["actions_all"] == 5
+    assert s["falls_success"] == 0 and s["falls_all"] == 1
+    assert s["planning_time_median_s"] == 2.0
+    assert s["failure_reasons"] == {"target fell": 1}
