@@ -1,0 +1,303 @@
+"""Motion verification of pick-and-place actions: keyframes, segments, dense collision re-check.
+
+`plan_action` turns one action into IK keyframes (keyframes.py) and optimised segments
+(trajectory.py) in the three phase models (scene.py), then re-checks every exported segment with
+the phase's SceneGraphCollisionChecker, independent of the optimiser: every exported sample, and
+the straight joint-space edge between consecutive samples at the checker's `edge_step`. The result
+is `verified` or a named failure (which keyframe's IK failed, which segment failed to optimise, or
+the time and body pair of a collision).
+
+`verify_plan` runs a whole plan on the true scene (objects move as in the world model: the centre
+goes to (x, y), the yaw turns by theta_place - theta_pick); `motion_check` answers one action for a
+planner's closed loop.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses as dc
+import time
+
+import numpy as np
+from pydrake.math import RigidTransform
+
+from tsad_drake.motion.keyframes import (
+    R_SG,
+    KeyframeError,
+    grasp_geometry,
+    keyframe_targets,
+    solve_keyframe,
+)
+from tsad_drake.motion.scene import Held, MotionConfig, MotionModel
+from tsad_drake.motion.trajectory import (
+    SegmentError,
+    linear_segment,
+    optimise_segment,
+    sample_trajectory,
+)
+from tsad_drake.planning.types import Action
+from tsad_drake.scenario import ObjectConfig, Scenario
+from tsad_drake.station import StationConfig
+from tsad_drake.station_models import FINGER_OPEN, X_SO
+
+#: m, tcp of the ready configuration in S (outside the shelf, facing it); every plan starts there
+READY_TCP_S = (-0.15, 0.0, 0.15)
+
+
+@dc.dataclass
+class Segment:
+    """One checked piece of motion: motion-plant positions (arm joints, then fingers) over time."""
+
+    name: str  #: "<from keyframe>-><to keyframe>" or "close" / "open"
+    times: np.ndarray  #: (N,) s, on the plan's time line
+    q: np.ndarray  #: (N, 8) UR5e joints (rad) then finger joints (m)
+    held: str | None  #: name of the object in the gripper, if any
+
+
+@dc.dataclass
+class ActionMotion:
+    """The motion of one action: verified, or a named failure; scene before and after."""
+
+    action: Action
+    verified: bool
+    failure: str
+    segments: list[Segment]
+    objects_before: list[ObjectConfig]  #: true objects when the action starts
+    objects_after: list[ObjectConfig]  #: true objects when it ends (the held one moved)
+    X_TO: RigidTransform | None  #: held object's pose in the tcp frame while carried
+    keyframes: dict[str, np.ndarray]  #: name -> motion-plant positions of each solved keyframe
+    planning_time_s: float
+
+    @property
+    def end_q(self) -> np.ndarray | None:
+        return self.segments[-1].q[-1] if self.verified else None
+
+
+class MotionFailure(RuntimeError):
+    """A named reason why an action has no verified motion."""
+
+
+def moved_object(obj: ObjectConfig, action: Action) -> ObjectConfig:
+    """Where the world model puts the object: centre at (x, y), yaw turned by the angle change."""
+    return dc.replace(obj, x=float(action.x), y=float(action.y),
+                      yaw=float(obj.yaw + action.theta_place - action.theta_pick))
+
+
+def _first_collision(model: MotionModel, times: np.ndarray, qs: np.ndarray) -> str | None:
+    """None when every sample and every edge between samples is collision-free, else what hit."""
+    checker = model.checker
+    free = checker.CheckConfigsCollisionFree(list(qs))
+    bad = [i for i, ok in enumerate(free) if not ok]
+    limit = bad[0] if bad else len(qs) - 1
+    edges = checker.CheckEdgesCollisionFree([(qs[i], qs[i + 1]) for i in range(limit)])
+    for i, ok in enumerate(edges):
+        if not ok:
+            steps = max(int(np.ceil(np.linalg.norm(qs[i + 1] - qs[i]) / checker.edge_step_size())), 1)
+            for s in np.linspace(0.0, 1.0, steps + 1):
+                q = qs[i] + s * (qs[i + 1] - qs[i])
+                if not checker.CheckConfigCollisionFree(q):
+                    return _describe(model, times[i] + s * (times[i + 1] - times[i]), q)
+    if bad:
+        return _describe(model, times[bad[0]], qs[bad[0]])
+    return None
+
+
+def _describe(model: MotionModel, t: float, q: np.ndarray) -> str:
+    a, b, margin = model.closest_pair(q)
+    return f"collision at t = {t:.3f} s between {a} and {b} ({margin * 1000:+.1f} mm from the bound)"
+
+
+def check_segment(model: MotionModel, segment: Segment) -> str | None:
+    """Dense re-check of an exported segment; None when collision-free, else the named failure."""
+    hit = _first_collision(model, segment.times, segment.q)
+    return None if hit is None else f"segment {segment.name}: {hit}"
+
+
+def _arm_segment(model: MotionModel, name: str, q0: np.ndarray, q1: np.ndarray, t0: float
+                 ) -> Segment:
+    """Optimise, sample and densely check one arm segment; raises MotionFailure.
+
+    With `lazy_collision` (default) the segment is first optimised without the minimum-distance
+    constraints (milliseconds) and kept when the dense check passes; otherwise (or when not lazy)
+    it is optimised with them, and the dense check decides again.
+    """
+    config = model.config
+    held = None if model.held is None else model.held.obj.name
+    hit = "not tried"
+    if config.lazy_collision:
+        try:
+            segment = _sampled(model, name, optimise_segment(model, q0, q1, False), t0, held)
+            hit = _first_collision(model, segment.times - t0, segment.q)
+            if hit is None:
+                return segment
+        except SegmentError as err:
+            hit = str(err)
+    try:
+        segment = _sampled(model, name, optimise_segment(model, q0, q1), t0, held)
+    except SegmentError as err:
+        raise MotionFailure(f"segment {name} failed to optimise: {err}"
+                            + ("" if hit == "not tried" else
+                               f"; without the distance constraints: {hit}")) from None
+    failure = check_segment(model, segment)
+    if failure is not None:
+        raise MotionFailure(failure)
+    return segment
+
+
+def _sampled(model: MotionModel, name: str, traj, t0: float, held: str | None) -> Segment:
+    times, qs = sample_trajectory(traj, model.config.sample_step)
+    return Segment(name, times + t0, qs, held)
+
+
+def _gripper_segment(model: MotionModel, name: str, q0: np.ndarray, q1: np.ndarray, t0: float,
+                     held: str) -> Segment:
+    times, qs = linear_segment(q0, q1, model.config.gripper_duration, model.config.sample_step)
+    segment = Segment(name, times + t0, qs, held)
+    failure = check_segment(model, segment)
+    if failure is not None:
+        raise MotionFailure(failure)
+    return segment
+
+
+class _ActionPlanner:
+    """The state of one action's planning (keyframes, segments, time line)."""
+
+    def __init__(self, shelf, X_WS: RigidTransform, objects: list[ObjectConfig], action: Action,
+                 config: MotionConfig):
+        self.shelf, self.X_WS, self.config, self.action = shelf, X_WS, config, action
+        self.objects = objects
+        names = [o.name for o in objects]
+        if action.object not in names:
+            raise MotionFailure(f"no object named {action.object!r} in the scene")
+        self.obj = objects[names.index(action.object)]
+        self.keyframes: dict[str, np.ndarray] = {}
+        self.segments: list[Segment] = []
+        self.X_TO: RigidTransform | None = None
+        self.after = [moved_object(o, action) if o.name == action.object else o for o in objects]
+
+    def keyframe(self, model: MotionModel, name: str, X_ST: RigidTransform, previous: np.ndarray,
+                 finger: float) -> np.ndarray:
+        try:
+            q = solve_keyframe(model, self.X_WS @ X_ST, previous[model.arm_indices], finger)
+        except KeyframeError as err:
+            raise MotionFailure(f"keyframe {name}: {err}") from None
+        self.keyframes[name] = q
+        return q
+
+    def move(self, model: MotionModel, start: str, end: str, q0: np.ndarray, q1: np.ndarray) -> None:
+        t0 = self.segments[-1].times[-1] if self.segments else 0.0
+        self.segments.append(_arm_segment(model, f"{start}->{end}", q0, q1, t0))
+
+    def run(self, q_start: np.ndarray) -> None:
+        config, action, obj = self.config, self.action, self.obj
+        targets = keyframe_targets(obj, action.theta_pick, action.x, action.y, action.theta_place,
+                                   config)
+        closed = grasp_geometry(obj, action.theta_pick, config).finger
+        if closed > FINGER_OPEN:
+            raise MotionFailure(f"object {obj.name} is {2 * closed * 1000:.0f} mm wide across the "
+                                f"gripper at theta_pick: wider than its stroke")
+        pick = MotionModel(self.shelf, self.X_WS, self.objects, config, near=obj.name)
+        q_pre = self.keyframe(pick, "pre_grasp", targets["pre_grasp"], q_start, FINGER_OPEN)
+        q_grasp = self.keyframe(pick, "grasp", targets["grasp"], q_pre, FINGER_OPEN)
+        X_WO = self.X_WS @ X_SO(obj) @ RigidTransform([0.0, 0.0, config.lift_gap])
+        self.X_TO = pick.X_WT(q_grasp).inverse() @ X_WO
+        carry = MotionModel(self.shelf, self.X_WS, self.objects, config, Held(obj, self.X_TO))
+        q = {"grasp": q_grasp.copy()}
+        q["grasp"][carry.finger_indices] = closed
+        previous = q["grasp"]
+        for name in ("lift", "retreat", "pre_place", "place_above", "place"):
+            q[name] = previous = self.keyframe(carry, name, targets[name], previous, closed)
+        place = MotionModel(self.shelf, self.X_WS, self.after, config, near=obj.name)
+        q_released = q["place"].copy()
+        q_released[place.finger_indices] = FINGER_OPEN
+        q_post = self.keyframe(place, "post_place", targets["post_place"], q_released, FINGER_OPEN)
+
+        self.move(pick, "start", "pre_grasp", q_start, q_pre)
+        self.move(pick, "pre_grasp", "grasp", q_pre, q_grasp)
+        t0 = self.segments[-1].times[-1]
+        self.segments.append(_gripper_segment(carry, "close", q_grasp, q["grasp"], t0, obj.name))
+        names = ("grasp", "lift", "retreat", "pre_place", "place_above", "place")
+        for a, b in zip(names[:-1], names[1:], strict=True):
+            self.move(carry, a, b, q[a], q[b])
+        t0 = self.segments[-1].times[-1]
+        self.segments.append(_gripper_segment(carry, "open", q["place"], q_released, t0, obj.name))
+        self.move(place, "place", "post_place", q_released, q_post)
+
+
+def plan_action(scenario: Scenario, objects: list[ObjectConfig], action: Action,
+                q_start: np.ndarray, config: MotionConfig | None = None,
+                X_WS: RigidTransform | None = None) -> ActionMotion:
+    """Keyframes, segments and dense check of one action from q_start (motion-plant positions).
+
+    Never raises for a motion failure: the result carries `verified` False and the reason.
+    """
+    config = config or MotionConfig()
+    X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
+    start = time.perf_counter()
+    planner = None
+    failure = ""
+    try:
+        planner = _ActionPlanner(scenario.shelf, X_WS, objects, action, config)
+        planner.run(np.asarray(q_start, dtype=float))
+    except MotionFailure as err:
+        failure = str(err)
+    after = planner.after if planner is not None else list(objects)
+    return ActionMotion(action, not failure, failure,
+                        planner.segments if planner is not None and not failure else [],
+                        list(objects), after, planner.X_TO if planner is not None else None,
+                        planner.keyframes if planner is not None else {},
+                        time.perf_counter() - start)
+
+
+def ready_q(scenario: Scenario, objects: list[ObjectConfig], config: MotionConfig | None = None,
+            X_WS: RigidTransform | None = None) -> np.ndarray:
+    """Motion-plant positions of the ready configuration (tcp at READY_TCP_S facing the shelf)."""
+    config = config or MotionConfig()
+    X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
+    model = MotionModel(scenario.shelf, X_WS, objects, config)
+    return solve_keyframe(model, X_WS @ RigidTransform(R_SG(0.0), list(READY_TCP_S)),
+                          np.asarray(config.home_q), FINGER_OPEN)
+
+
+def verify_plan(scenario: Scenario, actions: list[Action], config: MotionConfig | None = None,
+                X_WS: RigidTransform | None = None,
+                progress=None) -> list[ActionMotion]:
+    """Plan and verify each action in turn on the true scene (see the module docstring).
+
+    Actions must name true objects. After a failed action the arm restarts from the ready
+    configuration and the object is still moved (as the symbolic world model moves it).
+    `progress(i, motion)`, if given, is called after each action.
+    """
+    config = config or MotionConfig()
+    X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
+    objects = copy.deepcopy(scenario.objects)
+    ready = ready_q(scenario, objects, config, X_WS)
+    q, t = ready, 0.0
+    motions = []
+    for i, action in enumerate(actions):
+        motion = plan_action(scenario, objects, action, q, config, X_WS)
+        for segment in motion.segments:
+            segment.times = segment.times + t
+        if motion.verified:
+            q, t = motion.end_q, motion.segments[-1].times[-1]
+        else:
+            q = ready
+        objects = motion.objects_after
+        motions.append(motion)
+        if progress is not None:
+            progress(i, motion)
+    return motions
+
+
+def motion_check(scenario: Scenario, action: Action, config: MotionConfig | None = None
+                 ) -> tuple[bool, str]:
+    """Can the arm carry out `action` in `scenario` (true objects) from the ready pose?
+
+    Returns (True, "") or (False, the named failure). For a planner's closed loop: reject the
+    action and plan again without it.
+    """
+    config = config or MotionConfig()
+    X_WS = StationConfig().X_WS(scenario.shelf.floor_height)
+    motion = plan_action(scenario, scenario.objects, action,
+                         ready_q(scenario, scenario.objects, config, X_WS), config, X_WS)
+    return motion.verified, motion.failure
