@@ -103,7 +103,10 @@ def test_label_image_agrees_with_raycast(station, scenario):
         expected_depth, expected = raycast(prisms, station.camera_config, X_SC)
         assert depth.dtype == np.float32 and label.dtype == np.int32
         assert set(np.unique(label)) <= set(range(-1, len(scenario.objects)))
-        visible = [i for i in range(len(scenario.objects)) if np.count_nonzero(expected == i)]
+        # every pixel's label agrees but for a thin band along silhouettes
+        assert np.mean(label == expected) > 0.99
+        # per object IoU, for objects big enough in the image for IoU to mean something
+        visible = [i for i in range(len(scenario.objects)) if np.count_nonzero(expected == i) >= 30]
         assert visible
         for i in visible:
             iou = _iou(label == i, expected == i)
