@@ -184,8 +184,9 @@ def convex_polygons_overlap_pairs(a: np.ndarray, b: np.ndarray, margin: float = 
     """
     separated = np.zeros(a.shape[0], dtype=bool)
     for normals in (_batch_normals(a), _batch_normals(b)):  # (P, K, 2)
-        pa = np.einsum("pvd,pkd->pvk", a, normals)
-        pb = np.einsum("pvd,pkd->pvk", b, normals)
+        axes = normals.transpose(0, 2, 1)
+        pa = a @ axes  # (P, Va, K)
+        pb = b @ axes
         gap = np.maximum(pa.min(axis=1) - pb.max(axis=1), pb.min(axis=1) - pa.max(axis=1))
         useful = np.any(normals != 0.0, axis=-1)
         separated |= np.any((gap > margin) & useful, axis=1)

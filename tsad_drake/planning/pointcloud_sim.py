@@ -18,7 +18,7 @@ from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspa
 #: m, default gap a placed object must keep from every other object's footprint
 DEFAULT_PLACEMENT_GAP = 0.005
 #: support directions a perceived footprint hull is reduced to (a dense circle has a vertex per point)
-HULL_DIRECTIONS = 48
+HULL_DIRECTIONS = 24
 
 
 def move_object(obj: PlanObject, x: float, y: float, rotation: float) -> PlanObject:
@@ -45,7 +45,7 @@ def footprint_hull(obj: PlanObject, directions: int = HULL_DIRECTIONS) -> np.nda
     """Counter-clockwise convex footprint of `obj`: the hull of its completed points.
 
     The hull is reduced to its support points in `directions` evenly spread directions (at most
-    that many vertices, still counter-clockwise; a 35 mm circle loses < 0.1 mm).
+    that many vertices, still counter-clockwise; a 35 mm circle loses < 0.3 mm).
     """
     hull = convex_hull(completed_footprint_points(obj))
     if len(hull) <= directions:

@@ -33,7 +33,7 @@ class TSADConfig:
     """Every constant of TSAD (paper values where it gives them)."""
 
     iterations: int = 60  #: sub-MCTS iterations per sub-search
-    max_iterations: int = 240  #: iterations a sub-search may use while it has found no terminal state
+    max_iterations: int = 150  #: iterations a sub-search may use while it has found no terminal state
     exploration: float = 0.3  #: c, UCB exploration coefficient (dimensionless)
     step_penalty: float = 0.1  #: alpha, value lost per action (dimensionless)
     max_depth: int = 4  #: d_max, actions per sub-search (tree plus rollout)
@@ -44,7 +44,7 @@ class TSADConfig:
     empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
     widening: float | None = 3.0  #: children <= widening * sqrt(N(s)); None: expand all first
     max_sub_searches: int = 12  #: sub-MCTS runs before giving up
-    time_budget_s: float = 30.0  #: s, wall-clock budget of one plan_tsad call
+    time_budget_s: float = 10.0  #: s, wall-clock budget of one plan_tsad call
     use_ro: bool = True  #: ablation: False drops r_o ("w/o r_o")
     use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
     max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
