@@ -7,6 +7,7 @@ Bad input ends with one line on stderr and exit status 2; a planning failure is 
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 from pathlib import Path
@@ -124,6 +125,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    logging.getLogger("drake").setLevel(logging.WARNING)  # Drake's INFO lines are not for users
     parser = build_parser()
     args = parser.parse_args(argv)
     from tsad_drake.cli_plan import PLAN_COMMANDS

@@ -42,6 +42,11 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                            "the target could not be retrieved (the JSON says why)."))
     add_scenario_args(p)
     _add_planner_args(p, default_observer="drake")
+    p.add_argument("--motion", action="store_true",
+                   help="verify every action at the motion level (IK keyframes, trajectory "
+                        "optimisation, dense collision check) before executing it; a rejected "
+                        "action is excluded and TSAD plans again. Also writes DIR/replay.html "
+                        "(offline Meshcat recording) and DIR/scene.dmd.yaml")
     p.add_argument("--out", default="out/plan", help="output directory (default out/plan)")
 
     p = sub.add_parser("bench", help="run many episodes; print a table in the paper's format",
@@ -86,8 +91,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out)
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
                                ablation=args.ablation, observer=args.observer,
-                               closed_loop=not args.open_loop, max_actions=args.max_actions)
-    result = run_episode_for_cli(scenario, args.seed, settings)
+                               closed_loop=not args.open_loop, max_actions=args.max_actions,
+                               motion=args.motion)
+    result = run_episode_for_cli(scenario, args.seed, settings, out)
     path = out / "plan.json"
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(result, indent=2))
@@ -98,6 +104,16 @@ def cmd_plan(args: argparse.Namespace) -> int:
         print(f"  {i + 1:2d}. move {a['object']:<8} pick at {a['theta_pick_deg']:+5.0f} deg -> "
               f"({a['place_xy'][0]:.3f}, {a['place_xy'][1]:.3f}) place at "
               f"{a['theta_place_deg']:+5.0f} deg  [sub-search {a['sub_search']}]")
+    if args.motion:
+        motion = result["motion"]
+        share = result.get("motion_feasible_share")
+        print(f"motion: {sum(m['verified'] for m in motion)}/{len(motion)} executed actions "
+              f"verified as one continuous motion; "
+              f"{'-' if share is None else f'{share:.0%}'} of checked actions motion-feasible")
+        for i, m in enumerate(motion):
+            if not m["verified"]:
+                print(f"  action {i + 1}: {m['failure']}")
+        print(f"wrote {out / 'replay.html'} and {out / 'scene.dmd.yaml'}")
     verdict = "target retrieved" if result["success"] else f"FAILED: {result['failure_reason']}"
     print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
           f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")

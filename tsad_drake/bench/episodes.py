@@ -23,6 +23,7 @@ class EpisodeSettings:
     closed_loop: bool = True
     max_actions: int = 12  #: pick-and-places allowed in the episode, random ones included
     segmentation: str = "label"
+    motion: bool = False  #: verify each action at the motion level before executing it
 
 
 class RaycastObserver:
@@ -76,10 +77,19 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
     planner = get_planner(settings.planner)
     config = make_config(settings.planner, settings.ablation)
     observer = make_observer(settings.observer, scenario, settings.segmentation)
+    action_check = None
+    if settings.motion:
+        from tsad_drake.motion.verify import motion_check
+
+        action_check = motion_check
     result = run_episode(scenario, planner, settings.feasibility, observer, config, seed,
                          closed_loop=settings.closed_loop, max_actions=settings.max_actions,
-                         planner_name=settings.planner)
+                         planner_name=settings.planner, action_check=action_check)
     row = result.to_json()
+    if settings.motion:
+        checks = row["motion_checks"]
+        row["motion_feasible_share"] = (sum(c["verified"] for c in checks) / len(checks)
+                                        if checks else None)
     row["ablation"] = settings.ablation
     row["observer"] = settings.observer
     row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
@@ -100,9 +110,30 @@ def run_named_episode(spec) -> dict:
     return run_settings(scenario, spec.seed, settings)
 
 
-def run_episode_for_cli(scenario: Scenario, seed: int, settings: EpisodeSettings) -> dict:
-    """`tsad plan`: one episode on a given scene, as the plan.json document."""
+def run_episode_for_cli(scenario: Scenario, seed: int, settings: EpisodeSettings,
+                        out_dir=None) -> dict:
+    """`tsad plan`: one episode on a given scene, as the plan.json document.
+
+    With `settings.motion`, the executed actions are verified again as one continuous motion from
+    the ready pose; `motion` holds the segments, and `out_dir` gets `replay.html` (an offline
+    Meshcat recording) and `scene.dmd.yaml` (Drake model directives of the scene).
+    """
     row = run_settings(scenario, seed, settings)
+    if settings.motion:
+        from tsad_drake.motion.export import (
+            actions_from_records,
+            motion_section,
+            write_scene_directives,
+        )
+        from tsad_drake.motion.replay import write_replay_html
+        from tsad_drake.motion.verify import verify_plan
+
+        actions = actions_from_records(row["actions"])
+        motions = verify_plan(scenario, actions)
+        row["motion"] = motion_section(scenario, motions)
+        if out_dir is not None:
+            write_replay_html(scenario, actions, motions, out_dir / "replay.html")
+            write_scene_directives(scenario, out_dir)
     row["scenario"] = scenario.name
     row["theta_star_deg"] = (None if row.get("theta_star_deg") is None
                              else round(float(row["theta_star_deg"]), 6))

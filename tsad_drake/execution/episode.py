@@ -21,6 +21,7 @@ from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.feasibility import make_feasibility
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
+from tsad_drake.planning.tsad import action_key
 from tsad_drake.planning.types import Action, Plan, PlanningState
 from tsad_drake.scenario import Scenario
 
@@ -57,6 +58,8 @@ class EpisodeResult:
     actions: list[dict] = dc.field(default_factory=list)  #: executed actions, in order
     rounds: list[dict] = dc.field(default_factory=list)  #: per plan: claim vs outcome, stats
     closed_loop: bool = True
+    #: per action checked at the motion level: object, place_xy, verified, failure
+    motion_checks: list[dict] = dc.field(default_factory=list)
 
     def to_json(self) -> dict:
         """A JSON-ready dict (the plan.json fields first)."""
@@ -92,24 +95,41 @@ def _true_name(world: WorldModel, sim: PlanningState, action: Action) -> str:
         return world.nearest(obj.x, obj.y)
 
 
+#: an action check: (current true scene, action naming a true object) -> (ok, reason)
+ActionCheck = Callable[[Scenario, Action], tuple[bool, str]]
+
+
 def _execute(world: WorldModel, state: PlanningState, actions: list[Action],
-             result: EpisodeResult) -> int:
-    """Apply `actions` in the world; returns how many were applied."""
+             result: EpisodeResult, check: ActionCheck | None = None,
+             reject: bool = False) -> tuple[int, Action | None]:
+    """Apply `actions` in the world; returns how many were applied and the rejected one, if any.
+
+    With `check`, every action is verified first (at the motion level) and the verdict recorded;
+    with `reject`, a failing action is not executed and execution stops there.
+    """
     sim = state
     for n, action in enumerate(actions):
         if world.done:
-            return n
+            return n, None
         name = _true_name(world, sim, action)
-        world.apply(dc.replace(action, object=name))
+        true_action = dc.replace(action, object=name)
+        if check is not None:
+            ok, why = check(world.scenario(), true_action)
+            result.motion_checks.append({**action_record(action, name), "verified": ok,
+                                         "failure": why})
+            if not ok and reject:
+                return n, action
+        world.apply(true_action)
         result.actions.append(action_record(action, name))
         sim = simulate_pick_place(sim, action)
-    return len(actions)
+    return len(actions), None
 
 
 def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_name: str,
                 observe: Callable[[Scenario], PerceivedScene], config: Any, seed: int,
                 closed_loop: bool = True, max_actions: int = DEFAULT_MAX_ACTIONS,
-                planner_name: str = "") -> EpisodeResult:
+                planner_name: str = "", action_check: ActionCheck | None = None,
+                max_rejections: int = 8) -> EpisodeResult:
     """Run one episode of `planner` on `scenario` (see the module docstring).
 
     Args:
@@ -124,6 +144,10 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
             plan that stops short of the target is still executed when it has actions.
         max_actions: pick-and-places allowed in the episode, random ones included (>= 1).
         planner_name: recorded name (default: the first plan's `planner` field).
+        action_check: verifies each action before it is executed (motion planning). A planner
+            whose config has `excluded_actions` plans again with a rejected action excluded (at
+            most `max_rejections` times in a row); for other planners the verdict is only recorded.
+        max_rejections: consecutive rejections after which the episode fails.
     """
     if max_actions < 1:
         raise ValueError("max_actions must be at least 1")
@@ -136,6 +160,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
     result = EpisodeResult(scenario.name, seed, planner_name, feasibility_name,
                            closed_loop=closed_loop)
     reason = ""
+    can_exclude = hasattr(config, "excluded_actions")
+    excluded: list[tuple[str, float, float]] = []
     while not world.done:
         if world.num_actions >= max_actions:
             reason = f"action limit {max_actions} reached"
@@ -151,6 +177,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
             _execute(world, state, [action], result)
             result.random_actions += 1
             continue
+        if can_exclude:
+            config = dc.replace(config, excluded_actions=tuple(excluded))
         plan = planner(state, feasibility, workspace, config, rng)
         result.planning_time_s += plan.planning_time_s
         result.planner = result.planner or plan.planner
@@ -171,8 +199,16 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
             first = plan.actions[0].sub_search
             todo = [a for a in plan.actions if a.sub_search == first]
         todo = todo[:max_actions - world.num_actions]
-        executed = _execute(world, state, todo, result)
+        executed, rejected = _execute(world, state, todo, result, action_check, can_exclude)
         result.rounds.append(_round_record(plan, executed, world))
+        if executed:
+            excluded = []
+        if rejected is not None:
+            excluded.append(action_key(rejected))
+            if len(excluded) > max_rejections:
+                reason = f"no motion-feasible action after {max_rejections} rejections"
+                break
+            continue
         if not closed_loop and not world.done:
             if not world.retrieve():
                 reason = "target not retrievable after the plan"

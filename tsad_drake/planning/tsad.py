@@ -49,6 +49,9 @@ class TSADConfig:
     use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
     max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
     angle_fallbacks: int = 2  #: next-ranked angles tried when theta* yields no first sub-plan
+    #: relocations (object, x, y) from the current state that motion planning rejected; the
+    #: closed loop adds to it and plans again, so the first action is never one of them
+    excluded_actions: tuple[tuple[str, float, float], ...] = ()
 
 
 class EmptyCells:
@@ -156,13 +159,20 @@ class Node:
     rollout_value: float = -math.inf  #: best value a rollout from here reached
 
 
+def action_key(action: Action) -> tuple[str, float, float]:
+    """What identifies a relocation for exclusion: the object and its placement cell."""
+    return (action.object, round(action.x, 4), round(action.y, 4))
+
+
 class SubSearch:
     """One subgoal-conditioned MCTS from `root` toward removing a member of R_{theta*,root}."""
 
     def __init__(self, root: PlanningState, theta_index: int, feasibility: FeasibilityModel,
                  workspace: Workspace, config: TSADConfig, rng: np.random.Generator,
-                 empty_cells: EmptyCells, initial_empty: int) -> None:
+                 empty_cells: EmptyCells, initial_empty: int,
+                 excluded: frozenset[tuple[str, float, float]] = frozenset()) -> None:
         self.feasibility, self.workspace, self.config, self.rng = feasibility, workspace, config, rng
+        self.excluded = excluded  #: action keys not allowed from the root
         self.k = theta_index
         self.theta = float(workspace.approach_angles[theta_index])
         self.empty_cells = empty_cells
@@ -200,6 +210,8 @@ class SubSearch:
     def actions(self, node: Node) -> list[Action]:
         if node.untried is None:
             acts = legal_actions(self.feasibility, node.state, self.workspace, self.theta)
+            if node.parent is None and self.excluded:
+                acts = [a for a in acts if action_key(a) not in self.excluded]
             node.untried = [acts[i] for i in self.rng.permutation(len(acts))]
         return node.untried
 
@@ -358,8 +370,9 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
     for sub in range(config.max_sub_searches):
         if not feasibility.blockers(current, current.target_index)[k]:
             break
+        excluded = frozenset(config.excluded_actions) if sub == 0 else frozenset()
         search = SubSearch(current, k, feasibility, workspace, config, rng, empty_cells,
-                           initial_empty)
+                           initial_empty, excluded)
         sub_actions = search.run(deadline)
         iterations.append(search.iterations)
         nodes.append(search.nodes)
