@@ -35,3 +35,38 @@ def test_bad_names_and_limits():
     with pytest.raises(ValueError, match="max_actions"):
         run_episode(generate_scenario("1", 1), get_planner("tsad"), "oracle",
                     lambda s: observe_raycast(s).scene, make_config("tsad"), seed=0, max_actions=0)
+
+
+def test_rejected_actions_are_excluded_and_tsad_plans_again():
+    scenario = generate_scenario("1", 1)
+    observe = lambda s: observe_raycast(s).scene  # noqa: E731
+    baseline = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
+                           seed=1, planner_name="tsad")
+    first = baseline.actions[0]
+    rejected_key = (first["true_object"], first["place_xy"][0], first["place_xy"][1])
+    checked = []
+
+    def check(truth, action):  # stands in for motion planning: refuses one relocation
+        checked.append((truth.name, action.object))
+        key = (action.object, round(action.x, 6), round(action.y, 6))
+        return (key != rejected_key, "" if key != rejected_key else "boxed in")
+
+    result = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
+                         seed=1, planner_name="tsad", action_check=check)
+    executed = [(a["true_object"], a["place_xy"][0], a["place_xy"][1]) for a in result.actions]
+    assert rejected_key not in executed
+    rejections = [c for c in result.motion_checks if not c["verified"]]
+    assert rejections and all(c["failure"] == "boxed in" for c in rejections)
+    # every executed action was checked and passed; every rejected one was not executed
+    assert len(result.motion_checks) == len(result.actions) + len(rejections)
+    assert result.success, result.failure_reason
+
+
+def test_always_rejecting_check_ends_the_episode_as_a_failure():
+    result = run_episode(generate_scenario("1", 1), get_planner("tsad"), "oracle",
+                         lambda s: observe_raycast(s).scene, make_config("tsad"), seed=1,
+                         action_check=lambda truth, action: (False, "unreachable"),
+                         max_rejections=3)
+    assert not result.success and not result.actions
+    assert "no motion-feasible action" in result.failure_reason
+    assert len(result.motion_checks) == 4
