@@ -133,6 +133,20 @@ def approach_corridor(x: float, y: float, theta: float, half_width: float, finge
     return corridor_polygon(x, y, theta, half_width, finger_reach, length)
 
 
+def approach_corridors(points: np.ndarray, thetas: np.ndarray, half_width: float,
+                       finger_reach: float, outside: float = 0.30) -> np.ndarray:
+    """(P, 4, 2) `approach_corridor` to each of `points` (P, 2) along `thetas` (P,), batched."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    thetas = np.asarray(thetas, dtype=float).reshape(-1)
+    u = np.stack([np.cos(thetas), np.sin(thetas)], axis=1)
+    v = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    length = (points[:, 0] + outside) / np.maximum(np.cos(thetas), 1e-6)
+    front = points + finger_reach * u
+    back = points - length[:, None] * u
+    hv = half_width * v
+    return np.stack([front - hv, front + hv, back + hv, back - hv], axis=1)
+
+
 def side_wall_polygons(depth: float, width: float, thickness: float) -> list[np.ndarray]:
     """Footprints of the two side walls (an approach that crosses one is blocked by the shelf)."""
     walls = []

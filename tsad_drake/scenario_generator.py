@@ -15,7 +15,16 @@ Scenes follow the paper: the target sits in the back half and is only partly vis
 front (a fraction of its pixels in [min_visible, max_visible], measured on a label image rendered by
 `viewpoints.raycast` from the theta = 0 viewpoint); blockers are dropped between it and the front
 so that every approach angle is blocked by at least `min_blockers` objects; the remaining objects
-fill the shelf at random with at least `min_gap` between footprints.
+are packed into the deeper part of the shelf (the tightest of `packing` random valid spots), so free
+space is scarce but not scattered. A scene is kept only when its free space is scarce as in the
+paper (`free_cells`: cells a relocated object can be put in and reached, within
+`GeneratorConfig.free_cells`) and when removing pickable objects can free the target at all
+(`removal_solvable`, true shapes). `python -m tsad_drake.bench.difficulty` measures the result.
+
+The occluded variant puts a short target deep behind a screen of tall blockers packed around its
+front (`screen_angles_deg`) and keeps the layout when the target is hidden in every view; it is fast
+(< 1 s) but not required to be removal-solvable: with the 11 cm gripper corridor a screen that hides
+the target in all seven views also boxes it in, so most occluded scenes cannot be solved.
 """
 
 from __future__ import annotations
@@ -26,11 +35,23 @@ import numpy as np
 
 from tsad_drake.geometry2d import (
     approach_corridor,
-    convex_polygon_distance,
+    approach_corridors,
     convex_polygons_overlap,
+    convex_polygons_overlap_pairs,
+    footprint_polygon,
+    pad_polygons,
+    side_wall_polygons,
+    width_across,
 )
+from tsad_drake.planning.state import grid_cell_centres
 from tsad_drake.scenario import ObjectConfig, Scenario, ScenarioError, ShelfConfig, validate
-from tsad_drake.viewpoints import CameraConfig, target_visibility
+from tsad_drake.viewpoints import (
+    CameraConfig,
+    camera_pose,
+    raycast,
+    scenario_prisms,
+    target_visibility,
+)
 
 BUILTIN_SCENARIOS = ("1", "2", "3", "real")
 
@@ -47,6 +68,25 @@ class GeneratorConfig:
     target_depth_fraction: float = 0.55  #: target centre lies deeper than this fraction of depth
     wall_margin: float = 0.005  #: m, smallest gap between an object and a wall
     max_attempts: int = 400  #: whole-scene attempts before giving up
+    #: the other objects go to the tightest of this many random valid spots (1: uniform at random)
+    packing: int = 4
+    filler_depth_fraction: float = 0.45  #: the other objects' centres lie deeper than this fraction
+    #: allowed number of free, reachable grid cells (`free_cells`): free space must be scarce
+    free_cells: tuple[int, int] = (2, 4)
+    free_cell_probe_radius: float = 0.03  #: m, radius of the object a free cell must hold
+    #: free cells allowed in the occluded variant (its screen keeps the front open; the random
+    #: relocations that reveal the target need somewhere to go)
+    occluded_free_cells: tuple[int, int] = (2, 24)
+    #: occluded variant: the target sits this deep (fraction of depth) behind a screen of blockers
+    occluded_depth_fraction: float = 0.8
+    occluded_target_height: tuple[float, float] = (0.12, 0.15)  #: m, target height range
+    screen_height: tuple[float, float] = (0.185, 0.20)  #: m, height range of the screen blockers
+    #: deg, directions (from the target, 0 = towards the front opening, + to the left) of the
+    #: screen blockers; each is pushed out from the target until it fits, +- screen_jitter_deg
+    screen_angles_deg: tuple[float, ...] = (30.0, -30.0, 0.0, 55.0, -55.0)
+    screen_jitter_deg: float = 6.0  #: deg, uniform jitter of each screen direction
+    screen_min_radius: float = 0.04  #: m, screen centres start this far from the target's centre
+    screen_tries: int = 8  #: screen layouts tried per target placement
 
 
 def scenario_defaults(name: str) -> tuple[ShelfConfig, GeneratorConfig]:
@@ -93,15 +133,25 @@ def _sample_object(kind: str, name: str, rng: np.random.Generator) -> ObjectConf
     raise ScenarioError(f"unknown object kind {kind!r}")
 
 
-def _fits(obj: ObjectConfig, placed: list[ObjectConfig], shelf: ShelfConfig,
-          cfg: GeneratorConfig, min_gap: float) -> bool:
+def _outline(obj: ObjectConfig) -> tuple[np.ndarray, np.ndarray, float]:
+    """Footprint, centre and circumradius of `obj` at its current pose."""
     poly = obj.footprint()
+    centre = np.array([obj.x, obj.y])
+    return poly, centre, float(np.linalg.norm(poly - centre, axis=1).max())
+
+
+def _fits(obj: ObjectConfig, placed: list[tuple[np.ndarray, np.ndarray, float]],
+          shelf: ShelfConfig, cfg: GeneratorConfig, min_gap: float) -> bool:
+    """`obj` lies inside the shelf and at least min_gap from every outline in `placed`."""
+    poly, centre, radius = _outline(obj)
     m = cfg.wall_margin
     if (poly[:, 0].min() < m or poly[:, 0].max() > shelf.depth - m
             or np.abs(poly[:, 1]).max() > shelf.width / 2 - m):
         return False
-    for other in placed:
-        if convex_polygon_distance(poly, other.footprint()) < min_gap:
+    for other, other_centre, other_radius in placed:
+        if np.linalg.norm(centre - other_centre) >= radius + other_radius + min_gap:
+            continue  # bounding discs apart: no need for the exact distance
+        if convex_polygons_overlap(poly, other, min_gap):  # closer than min_gap
             return False
     return True
 
@@ -109,13 +159,72 @@ def _fits(obj: ObjectConfig, placed: list[ObjectConfig], shelf: ShelfConfig,
 def _place(obj: ObjectConfig, placed: list[ObjectConfig], shelf: ShelfConfig,
            cfg: GeneratorConfig, min_gap: float, rng: np.random.Generator,
            x_range: tuple[float, float], y_range: tuple[float, float], tries: int = 60) -> bool:
+    outlines = [_outline(o) for o in placed]
     for _ in range(tries):
         obj.x = float(rng.uniform(*x_range))
         obj.y = float(rng.uniform(*y_range))
-        if _fits(obj, placed, shelf, cfg, min_gap):
+        if _fits(obj, outlines, shelf, cfg, min_gap):
             placed.append(obj)
             return True
     return False
+
+
+def _place_packed(obj: ObjectConfig, placed: list[ObjectConfig], shelf: ShelfConfig,
+                  cfg: GeneratorConfig, min_gap: float, rng: np.random.Generator,
+                  candidates: int, tries: int = 60) -> bool:
+    """Place `obj` at the tightest of `candidates` valid random spots (next to others or walls),
+    so that the free space left stays in one piece instead of scattered gaps."""
+    outlines = [_outline(o) for o in placed]
+    best: tuple[float, float, float] | None = None
+    found = 0
+    for _ in range(tries):
+        obj.x = float(rng.uniform(cfg.filler_depth_fraction * shelf.depth, shelf.depth))
+        obj.y = float(rng.uniform(-shelf.width / 2, shelf.width / 2))
+        if not _fits(obj, outlines, shelf, cfg, min_gap):
+            continue
+        # clearance lower bound: bounding discs to the others, footprint to the walls
+        poly, centre, radius = _outline(obj)
+        walls = min(shelf.depth - poly[:, 0].max(), shelf.width / 2 - np.abs(poly[:, 1]).max())
+        clearance = min([walls] + [float(np.linalg.norm(centre - c)) - radius - r
+                                   for _, c, r in outlines])
+        if best is None or clearance < best[0]:
+            best = (clearance, obj.x, obj.y)
+        found += 1
+        if found >= candidates:
+            break
+    if best is None:
+        return False
+    obj.x, obj.y = best[1], best[2]
+    placed.append(obj)
+    return True
+
+
+def free_cells(scenario: Scenario, probe_radius: float) -> int:
+    """Grid cells where a cylinder of `probe_radius` fits (min_gap from everything) and can be
+    reached at some approach angle: the free space a relocated object can go to."""
+    shelf, grid, g = scenario.shelf, scenario.grid, scenario.gripper
+    cells = grid_cell_centres(shelf.depth, shelf.width, grid.cells_x, grid.cells_y, grid.margin)
+    thetas = scenario.approach_angles
+    polys = pad_polygons([o.footprint() for o in scenario.objects])
+    n, c, a = len(polys), len(cells), len(thetas)
+    probes = pad_polygons([footprint_polygon("cylinder", (probe_radius, 0.1), x, y, 0.0)
+                           for x, y in cells])
+    inside = ((cells[:, 0] - probe_radius >= 0) & (cells[:, 0] + probe_radius <= shelf.depth)
+              & (np.abs(cells[:, 1]) + probe_radius <= shelf.width / 2))
+    touch = convex_polygons_overlap_pairs(np.repeat(probes, n, axis=0), np.tile(polys, (c, 1, 1)),
+                                          scenario.min_gap).reshape(c, n)
+    fits = inside & ~touch.any(axis=1)
+    corridors = approach_corridors(np.repeat(cells[fits], a, axis=0),
+                                   np.tile(thetas, int(fits.sum())), g.swept_half_width,
+                                   g.finger_reach)
+    if len(corridors) == 0:
+        return 0
+    hit = convex_polygons_overlap_pairs(np.repeat(corridors, n, axis=0),
+                                        np.tile(polys, (len(corridors), 1, 1)))
+    clear = ~hit.reshape(len(corridors), n).any(axis=1)
+    for wall in side_wall_polygons(shelf.depth, shelf.width, shelf.wall_thickness):
+        clear &= ~convex_polygons_overlap_pairs(corridors, np.broadcast_to(wall, corridors.shape))
+    return int(np.count_nonzero(clear.reshape(-1, a).any(axis=1)))
 
 
 def target_blockers(scenario: Scenario, theta: float) -> list[int]:
@@ -125,6 +234,90 @@ def target_blockers(scenario: Scenario, theta: float) -> list[int]:
     corridor = approach_corridor(target.x, target.y, theta, g.swept_half_width, g.finger_reach)
     return [i for i, o in enumerate(scenario.objects)
             if o.name != target.name and convex_polygons_overlap(corridor, o.footprint())]
+
+
+def _fewest_target_blockers(scenario: Scenario) -> int:
+    """min over Theta of len(target_blockers(scenario, theta)), batched."""
+    g, thetas = scenario.gripper, scenario.approach_angles
+    target = scenario.object(scenario.target)
+    others = [o.footprint() for o in scenario.objects if o.name != target.name]
+    corridors = approach_corridors(np.tile([target.x, target.y], (len(thetas), 1)), thetas,
+                                   g.swept_half_width, g.finger_reach)
+    hits = convex_polygons_overlap_pairs(np.repeat(corridors, len(others), axis=0),
+                                         np.tile(pad_polygons(others), (len(thetas), 1, 1)))
+    return int(hits.reshape(len(thetas), len(others)).sum(axis=1).min())
+
+
+def removal_solvable(scenario: Scenario) -> bool:
+    """Whether removing pickable objects (true shapes) one after another ever frees the target.
+
+    Removing an object never makes another harder to pick, so taking out every pickable object
+    round after round decides it. Scenes that fail this cannot be solved by any rearrangement.
+    """
+    objects, thetas, g = scenario.objects, scenario.approach_angles, scenario.gripper
+    n, a = len(objects), len(thetas)
+    polys = pad_polygons([o.footprint() for o in objects])
+    centres = np.repeat([[o.x, o.y] for o in objects], a, axis=0)
+    corridors = approach_corridors(centres, np.tile(thetas, n), g.swept_half_width,
+                                   g.finger_reach)  # (n*a, 4, 2)
+    pairs_c = np.repeat(corridors, n, axis=0)
+    pairs_o = np.tile(polys, (n * a, 1, 1))
+    hits = convex_polygons_overlap_pairs(pairs_c, pairs_o).reshape(n, a, n)
+    hits[np.arange(n), :, np.arange(n)] = False
+    walls = side_wall_polygons(scenario.shelf.depth, scenario.shelf.width,
+                               scenario.shelf.wall_thickness)
+    clear = np.ones((n * a,), dtype=bool)
+    for wall in walls:
+        clear &= ~convex_polygons_overlap_pairs(corridors, np.broadcast_to(wall, (n * a, 4, 2)))
+    fits = np.array([[width_across(o.shape, o.size, o.yaw, th) <= g.stroke - g.grasp_margin
+                      for th in thetas] for o in objects])
+    reachable = fits & clear.reshape(n, a)
+    present = np.ones(n, dtype=bool)
+    t = scenario.target_index()
+    while True:
+        pickable = reachable & ~np.any(hits & present[None, None, :], axis=2)
+        if pickable[t].any():
+            return True
+        movable = pickable.any(axis=1) & present
+        movable[t] = False
+        if not movable.any():
+            return False
+        present &= ~movable
+
+
+def _place_screen(target: ObjectConfig, screen: list[ObjectConfig], placed: list[ObjectConfig],
+                  base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
+                  rng: np.random.Generator) -> bool:
+    """Pack `screen` around the target's front so that it is hidden in every view; append them."""
+    for obj in screen:
+        obj.size[-1] = float(rng.uniform(*cfg.screen_height))
+    for _ in range(cfg.screen_tries):
+        layout, outlines = list(placed), [_outline(o) for o in placed]
+        for obj, angle in zip(screen, cfg.screen_angles_deg, strict=True):
+            phi = np.radians(angle + rng.uniform(-cfg.screen_jitter_deg, cfg.screen_jitter_deg))
+            direction = np.array([-np.cos(phi), np.sin(phi)])
+            for radius in np.arange(cfg.screen_min_radius, 0.17, 0.004):
+                obj.x, obj.y = (float(v) for v in np.array([target.x, target.y]) + radius * direction)
+                if _fits(obj, outlines, base.shelf, cfg, base.min_gap):
+                    layout.append(obj)
+                    outlines.append(_outline(obj))
+                    break
+        if len(layout) == len(placed) + len(screen) and _target_hidden(
+                dc.replace(base, objects=layout, target=target.name), camera):
+            placed[:] = layout
+            return True
+    return False
+
+
+def _target_hidden(scenario: Scenario, camera: CameraConfig) -> bool:
+    """True when no pixel of the target shows in any view (front view and extremes first)."""
+    index = scenario.target_index()
+    for theta in sorted(scenario.approach_angles, key=abs):
+        _, label = raycast(scenario_prisms(scenario), camera,
+                           camera_pose(scenario.shelf, camera, float(theta)))
+        if np.any(label == index):
+            return False
+    return True
 
 
 def generate_scenario(name: str, seed: int, occluded: bool = False,
@@ -150,31 +343,47 @@ def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
     shelf = base.shelf
     half_w = shelf.width / 2
     target = _sample_object("cylinder" if rng.random() < 0.5 else "square_pillar", "target", rng)
+    depth_fraction = cfg.target_depth_fraction
+    if occluded:  # short and deep, so a screen of tall blockers right in front hides it
+        target.size[-1] = float(rng.uniform(*cfg.occluded_target_height))
+        depth_fraction = max(depth_fraction, cfg.occluded_depth_fraction)
     placed: list[ObjectConfig] = []
     if not _place(target, placed, shelf, cfg, base.min_gap, rng,
-                  (cfg.target_depth_fraction * shelf.depth, shelf.depth),
+                  (depth_fraction * shelf.depth, shelf.depth),
                   (-half_w + 0.06, half_w - 0.06)):
         return None
     others = [_sample_object(_sample_kind(base.name, i, rng), f"obj{i}", rng)
               for i in range(cfg.num_objects - 1)]
     rng.shuffle(others)
     num_blockers = int(rng.integers(cfg.num_blockers[0], cfg.num_blockers[1] + 1))
+    if occluded:  # a screen of tall blockers packed around the target's front hides it
+        num_blockers = len(cfg.screen_angles_deg)
+        if not _place_screen(target, others[:num_blockers], placed, base, cfg, camera, rng):
+            return None
     for k, obj in enumerate(others):
+        if occluded and k < num_blockers:
+            continue
         if k < num_blockers:  # in front of the target, within an approach corridor
             x_range = (0.0, max(target.x - 0.05, 0.02))
             y_range = (target.y - 0.09, target.y + 0.09)
         else:
-            x_range, y_range = (0.0, shelf.depth), (-half_w, half_w)
+            if not _place_packed(obj, placed, shelf, cfg, base.min_gap, rng, cfg.packing):
+                return None
+            continue
         if not _place(obj, placed, shelf, cfg, base.min_gap, rng, x_range, y_range):
             return None
     # target last in the object list is confusing in tables: keep generation order, target first
     scenario = dc.replace(base, objects=placed, target="target")
-    blockers = [len(target_blockers(scenario, th)) for th in scenario.approach_angles]
-    if min(blockers) < cfg.min_blockers:
+    if _fewest_target_blockers(scenario) < cfg.min_blockers:
         return None
-    if occluded:
-        visible = max(target_visibility(scenario, camera, th) for th in scenario.approach_angles)
-        return scenario if visible == 0.0 else None
+    low, high = cfg.occluded_free_cells if occluded else cfg.free_cells
+    free = free_cells(scenario, cfg.free_cell_probe_radius)
+    # the occluded variant's screen boxes the target in: it is not required to be solvable by
+    # removals (random relocations reveal the target first; see the module docstring)
+    if not low <= free <= high or (not occluded and not removal_solvable(scenario)):
+        return None
+    if occluded:  # hidden by the screen alone already; more objects only hide more
+        return scenario
     visible = target_visibility(scenario, camera, 0.0)
     if not cfg.min_visible <= visible <= cfg.max_visible:
         return None

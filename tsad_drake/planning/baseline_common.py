@@ -1,0 +1,139 @@
+"""Helpers the baseline planners (GP3, ROTS, ROTS*, optimal) share: budgets, angle choice, moves.
+
+Only the FeasibilityModel interface and the point-cloud simulation are used; no true shapes.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import time
+
+import numpy as np
+
+from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap
+from tsad_drake.planning.feasibility import approach_order
+from tsad_drake.planning.pointcloud_sim import (
+    footprint_hull,
+    move_object,
+    moved_polygon,
+    simulate_pick_place,
+)
+from tsad_drake.planning.state import completed_footprint_points, occupied_cells
+from tsad_drake.planning.types import (
+    Action,
+    FeasibilityModel,
+    PlanningState,
+    PlanObject,
+    Workspace,
+)
+
+#: m, where a removed object is parked: far in front of the shelf, out of every corridor
+PARK_X = -10.0
+#: m, spacing of parked objects along y
+PARK_SPACING = 1.0
+
+
+@dc.dataclass
+class Budget:
+    """An iteration (or node) budget and a wall-clock budget, whichever runs out first."""
+
+    max_iterations: int  #: iterations or expanded nodes
+    time_limit_s: float  #: s
+    iterations: int = 0
+    start: float = dc.field(default_factory=time.perf_counter)
+
+    def tick(self) -> None:
+        self.iterations += 1
+
+    @property
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.start
+
+    def exhausted(self) -> bool:
+        return self.iterations >= self.max_iterations or self.elapsed >= self.time_limit_s
+
+
+def preferred_angle(workspace: Workspace, mask: np.ndarray, prefer: float = 0.0) -> float | None:
+    """The angle of Theta allowed by `mask` closest to `prefer` (ties: smaller |theta|)."""
+    for k in approach_order(workspace.approach_angles, prefer):
+        if mask[k]:
+            return float(workspace.approach_angles[k])
+    return None
+
+
+def reachable_angles(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                     workspace: Workspace) -> np.ndarray:
+    """(A,) angles at which object `index` could be picked once its blockers are gone."""
+    reachable = getattr(feasibility, "reachable", None)
+    if reachable is None:
+        return np.ones(len(workspace.approach_angles), dtype=bool)
+    return np.asarray(reachable(state, index), dtype=bool)
+
+
+def park(state: PlanningState, index: int) -> PlanningState:
+    """`state` with object `index` removed from the shelf (parked far outside every corridor)."""
+    obj = state.objects[index]
+    action = Action(obj.name, 0.0, PARK_X, PARK_SPACING * (index + 1), 0.0)
+    return simulate_pick_place(state, action)
+
+
+def target_clear(feasibility: FeasibilityModel, state: PlanningState) -> np.ndarray:
+    """(A,) angles at which the target can be taken out in `state`."""
+    return np.asarray(feasibility.pickable(state, state.target_index), dtype=bool)
+
+
+class CellScorer:
+    """Cheap per-cell scores of a placement, cached per object pose (ranking signals only).
+
+    `after_moves` is epsilon after the move (state.py's definition of an empty cell);
+    `corridor_blocks` counts the target's approach corridors the moved object's perceived hull
+    would touch. The feasibility model has the final word on every move.
+    """
+
+    def __init__(self, workspace: Workspace) -> None:
+        self.workspace = workspace
+        self._masks: dict[tuple, np.ndarray] = {}
+        self._hulls: dict[str, tuple[np.ndarray, tuple]] = {}
+        self._corridors: dict[tuple, list[np.ndarray]] = {}
+
+    def mask(self, obj: PlanObject) -> np.ndarray:
+        key = (obj.name, obj.pose)
+        if key not in self._masks:
+            ws = self.workspace
+            self._masks[key] = occupied_cells(completed_footprint_points(obj), ws.cell_centres,
+                                              ws.min_empty_distance)
+        return self._masks[key]
+
+    def after_moves(self, state: PlanningState, index: int, theta_pick: float,
+                    options: np.ndarray) -> dict[int, int]:
+        """epsilon after placing object `index` in each cell allowed by `options` (nan: not)."""
+        ws = self.workspace
+        rest = np.zeros(len(ws.cell_centres), dtype=bool)
+        for j, obj in enumerate(state.objects):
+            if j != index:
+                rest |= self.mask(obj)
+        obj = state.objects[index]
+        counts = {}
+        for c in np.nonzero(~np.isnan(options))[0]:
+            x, y = ws.cell_centres[c]
+            moved = move_object(obj, x, y, float(options[c]) - theta_pick)
+            counts[int(c)] = int(np.count_nonzero(~(rest | self.mask(moved))))
+        return counts
+
+    def corridor_blocks(self, state: PlanningState, index: int, x: float, y: float,
+                        rotation: float) -> int:
+        """How many target approach corridors object `index` moved to (x, y) would touch."""
+        obj = state.objects[index]
+        if obj.name not in self._hulls:  # the hull moves rigidly with its object
+            self._hulls[obj.name] = (footprint_hull(obj), obj.pose)
+        hull, (hx, hy, hyaw) = self._hulls[obj.name]
+        hull = moved_polygon(hull, (hx, hy), obj.x, obj.y, obj.yaw - hyaw)
+        poly = moved_polygon(hull, (obj.x, obj.y), x, y, rotation)
+        target = state.objects[state.target_index]
+        tkey = (target.x, target.y)
+        if tkey not in self._corridors:
+            ws = self.workspace
+            self._corridors[tkey] = [
+                approach_corridor(target.x, target.y, th, ws.swept_half_width, ws.finger_reach)
+                for th in ws.approach_angles]
+        return sum(convex_polygons_overlap(c, poly) for c in self._corridors[tkey])
