@@ -152,7 +152,7 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
     if max_actions < 1:
         raise ValueError("max_actions must be at least 1")
     rng = np.random.default_rng(seed)
-    if closed_loop and hasattr(config, "max_sub_searches"):
+    if closed_loop and hasattr(config, "max_sub_searches") and not getattr(config, "lookahead", False):
         # the paper plans only the first sub-search per observation in closed loop
         config = dc.replace(config, max_sub_searches=1)
     world = WorldModel(scenario)

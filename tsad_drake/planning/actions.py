@@ -76,9 +76,15 @@ def legal_actions(feasibility: FeasibilityModel, state: PlanningState, workspace
 
 
 def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,
-                  rng: np.random.Generator, prefer: float = 0.0) -> Action | None:
-    """A uniformly random feasible action (random object, then random valid cell), or None."""
+                  rng: np.random.Generator, prefer: float = 0.0,
+                  among: list[int] | None = None) -> Action | None:
+    """A uniformly random feasible action (random object, then random valid cell), or None.
+
+    `among` restricts the objects considered (default: every object but the target).
+    """
     movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
+    if among is not None:
+        movable = [i for i in movable if i in among]
     for i in rng.permutation(movable):
         actions = object_actions(feasibility, state, int(i), workspace, prefer)
         if actions:

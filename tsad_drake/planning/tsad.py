@@ -48,10 +48,20 @@ class TSADConfig:
     use_ro: bool = True  #: ablation: False drops r_o ("w/o r_o")
     use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
     max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
-    angle_fallbacks: int = 2  #: next-ranked angles tried when theta* yields no first sub-plan
+    angle_fallbacks: int = 6  #: next-ranked angles tried when theta* yields no complete plan
     #: relocations (object, x, y) from the current state that motion planning rejected; the
     #: closed loop adds to it and plans again, so the first action is never one of them
     excluded_actions: tuple[tuple[str, float, float], ...] = ()
+    #: probability that a rollout step moves a relevant object (a member of R_{theta*,s} or an
+    #: object blocking a member's approach) instead of any object; 0 is the paper's uniform
+    #: random policy. Expansion also tries relevant objects' actions first when this is > 0.
+    rollout_bias: float = 0.7
+    #: whole sequential searches tried (fresh random streams) until one reaches R = empty; the
+    #: sub-searches are myopic, so a dead end later on is escaped by searching again
+    restarts: int = 2
+    #: closed loop: still plan every sub-search (and execute only the first), so the executed
+    #: sub-plan is part of a complete plan; False is the paper's first-sub-search-only planning
+    lookahead: bool = True
 
 
 class EmptyCells:
@@ -207,12 +217,28 @@ class SubSearch:
         depth = 0 if parent is None else parent.depth + 1
         return Node(state, action, parent, depth, reward, terminal, reward, has_terminal=terminal)
 
+    def relevant(self, state: PlanningState) -> list[int]:
+        """Indices of R_{theta*,s} and of the objects blocking any approach to its members."""
+        blockers = self.feasibility.blockers
+        members = set(blockers(state, state.target_index)[self.k])
+        related = set(members)
+        for i in members:
+            for per_angle in blockers(state, i):
+                related |= per_angle
+        related.discard(state.target_index)
+        return sorted(related)
+
     def actions(self, node: Node) -> list[Action]:
         if node.untried is None:
             acts = legal_actions(self.feasibility, node.state, self.workspace, self.theta)
             if node.parent is None and self.excluded:
                 acts = [a for a in acts if action_key(a) not in self.excluded]
-            node.untried = [acts[i] for i in self.rng.permutation(len(acts))]
+            acts = [acts[i] for i in self.rng.permutation(len(acts))]
+            if self.config.rollout_bias > 0:
+                # untried actions are popped from the end: relevant objects' actions come first
+                names = {node.state.objects[i].name for i in self.relevant(node.state)}
+                acts.sort(key=lambda a: a.object in names)
+            node.untried = acts
         return node.untried
 
     def can_expand(self, node: Node) -> bool:
@@ -237,7 +263,13 @@ class SubSearch:
         cfg = self.config
         state, path_actions, best = node.state, [], -math.inf
         for step in range(1, cfg.max_depth - node.depth + 1):
-            action = random_action(self.feasibility, state, self.workspace, self.rng, self.theta)
+            action = None
+            if self.rng.random() < cfg.rollout_bias:
+                action = random_action(self.feasibility, state, self.workspace, self.rng,
+                                       self.theta, among=self.relevant(state))
+            if action is None:
+                action = random_action(self.feasibility, state, self.workspace, self.rng,
+                                       self.theta)
             if action is None:
                 break
             state = simulate_pick_place(state, action)
@@ -345,13 +377,18 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         return result(None, [], False, "target cannot be grasped at any approach angle")
     ranked = ranked_angles(state, feasibility, workspace, config.max_removals)
     candidates = [first] + [theta for theta in ranked if theta != first][:config.angle_fallbacks]
-    plan = None
-    for theta_star in candidates:
-        plan = _sequential_sub_search(state, feasibility, workspace, config, rng, theta_star,
-                                      deadline, result)
-        if plan.success or plan.actions or time.perf_counter() >= deadline:
-            break
-    return plan
+    best = None
+    for _ in range(max(config.restarts, 1)):
+        for theta_star in candidates:
+            plan = _sequential_sub_search(state, feasibility, workspace, config, rng, theta_star,
+                                          deadline, result)
+            if plan.success:
+                return plan
+            if best is None or len(plan.actions) > len(best.actions):
+                best = plan
+            if time.perf_counter() >= deadline:
+                return best
+    return best
 
 
 def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
