@@ -376,7 +376,8 @@ def make_feasibility(name: str, scenario: Scenario, workspace: Workspace) -> Foo
         return OracleFeasibility(scenario, workspace)
     if name == "geometric":
         return GeometricFeasibility(workspace)
-    if name == "net":
-        raise NotImplementedError("the 'net' feasibility model (prehensile network) is not "
-                                  "available yet; use 'geometric' or 'oracle'")
+    if name == "net":  # the prehensile network (shipped weights; WeightsError, a UsageError, if bad)
+        from tsad_drake.planning.net_feasibility import NetFeasibility
+
+        return NetFeasibility(workspace)
     raise ValueError(f"unknown feasibility model {name!r}: use one of {', '.join(FEASIBILITY_NAMES)}")

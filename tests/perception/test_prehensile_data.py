@@ -1,0 +1,100 @@
+"""Prehensile dataset: a tiny dataset generated end to end, checked against the oracle."""
+
+import numpy as np
+import pytest
+
+from tsad_drake.perception import prehensile_data as pdata
+
+SEED = 3  # scenario "real" (5 objects): the quickest scene
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    out = tmp_path_factory.mktemp("prehensile_data")
+    summary = pdata.generate_dataset(out, scenes=1, seed_start=SEED, progress=False)
+    return out, summary, pdata.load_dataset(out)
+
+
+def test_generation_writes_a_shard_and_resumes(dataset):
+    out, summary, data = dataset
+    shards = list(out.glob("shard_*.npz"))
+    assert len(shards) == 1
+    assert summary["scenes"] == 1 and summary["samples"] == len(data) > 10
+    mtime = shards[0].stat().st_mtime_ns
+    pdata.generate_dataset(out, scenes=1, seed_start=SEED, progress=False)  # resume: nothing to do
+    assert shards[0].stat().st_mtime_ns == mtime
+    assert data.xy.shape == (len(data), pdata.NUM_POINTS, 2)
+    assert data.feats.shape == (len(data), pdata.NUM_POINTS, pdata.NUM_FEATURES)
+    assert set(np.unique(data.kind)) >= {"observed", "relocated", "reobserved"}
+    assert set(np.unique(data.scenario)) == {"real"}
+
+
+def test_labels_agree_with_the_oracle(dataset):
+    _, _, data = dataset
+    states = pdata.scene_states(SEED)
+    thetas = states[0][2].workspace.approach_angles
+    # rows are written state by state, in scene_states order
+    order = [(kind, pdata.oracle_labels(oracle, state)) for kind, state, oracle in states]
+    rows = np.arange(len(data))
+    kinds = data.kind
+    checked = 0
+    row = 0
+    for kind, lab in order:
+        n_pos = int(lab.pickable.sum())
+        n_neg = min(int((~lab.pickable).sum()), max(n_pos, 3))
+        for r in rows[row:row + n_pos + n_neg]:
+            assert kinds[r] == kind
+            query = data.feats[r, :, 1] > 0.5
+            i = int(np.unique(data.ids[r][query])[0])
+            k = int(np.argmin(np.abs(thetas - data.theta[r])))
+            assert data.pickable[r] == lab.pickable[i, k]
+            assert data.reach[r] == lab.reach[i, k]
+            blockers = set(np.unique(data.ids[r][data.point_label[r] == 1]).tolist())
+            sampled = set(np.unique(data.ids[r][data.ids[r] >= 0]).tolist())
+            assert blockers == set(lab.blockers[i][k]) & sampled
+            if data.pickable[r]:
+                assert not blockers
+            checked += 1
+        # balanced: every positive and as many negatives (at least 3)
+        assert data.pickable[row:row + n_pos + n_neg].sum() == n_pos
+        row += n_pos + n_neg
+    assert checked == len(data)
+
+
+def test_input_is_centred_on_the_query_and_rotated_to_the_approach(dataset):
+    _, _, data = dataset
+    scale = pdata.COORD_SCALE
+    for r in range(len(data)):
+        query = data.feats[r, :, 1] > 0.5
+        centre = data.xy[r][query].astype(float).mean(axis=0) * scale
+        assert np.linalg.norm(centre) < 0.06  # the visible side of an object near its centre
+        blocking = data.point_label[r] == 1
+        if blocking.any():  # blockers lie between the opening (-x) and the object
+            for j in np.unique(data.ids[r][blocking]):
+                xs = data.xy[r][data.ids[r] == j, 0].astype(float) * scale
+                assert xs.min() < 0.015 + 0.01
+    walls = data.feats[:, :, 2] > 0.5
+    assert walls.any()
+
+
+def test_encoding_is_deterministic():
+    states = pdata.scene_states(SEED, relocations=0, reobserve=False)
+    _, state, oracle = states[0]
+    cloud = pdata.state_cloud(state, oracle.workspace)
+    a = pdata.encode_query(cloud, 1, 0.2, 5)
+    b = pdata.encode_query(pdata.state_cloud(state, oracle.workspace), 1, 0.2, 5)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_splits_are_by_scene():
+    assert [pdata.split_of(s) for s in (0, 7, 8, 9, 18, 19)] == [
+        "train", "train", "val", "test", "val", "test"]
+
+
+@pytest.mark.slow
+def test_drake_rendered_scene_gives_labelled_samples():
+    pytest.importorskip("tsad_drake.station")
+    samples = pdata.scene_samples(SEED, observer="drake")
+    assert samples is not None and len(samples) > 10
+    assert samples.pickable.any() and (~samples.pickable).any()

@@ -1,0 +1,93 @@
+"""The `net` FeasibilityModel: batched = single, per-state cache, consistent answers, placements."""
+
+import numpy as np
+import pytest
+import torch
+
+from tsad_drake.cli import UsageError
+from tsad_drake.perception import prehensile_data as pdata
+from tsad_drake.perception.prehensile_net import PrehensileNet
+from tsad_drake.perception.prehensile_train import DEFAULT_WEIGHTS, save_checkpoint
+from tsad_drake.planning.net_feasibility import NetFeasibility
+
+
+@pytest.fixture(scope="module")
+def weights(tmp_path_factory):
+    """The shipped weights when built, else a seeded untrained network (the plumbing is the same)."""
+    if DEFAULT_WEIGHTS.is_file():
+        return DEFAULT_WEIGHTS
+    torch.manual_seed(0)
+    path = tmp_path_factory.mktemp("net") / "w.pt"
+    save_checkpoint(PrehensileNet(), path, {})
+    return path
+
+
+@pytest.fixture(scope="module")
+def states():
+    return pdata.scene_states(3, relocations=1, reobserve=False)  # observed + one relocation
+
+
+def test_batched_and_single_predictions_agree(weights, states):
+    for _, state, oracle in states:
+        batched = NetFeasibility(oracle.workspace, weights, batch_size=64)
+        single = NetFeasibility(oracle.workspace, weights, batch_size=1)
+        batched.evaluate_all(state)
+        n, a = len(state.objects), len(oracle.workspace.approach_angles)
+        assert batched.evaluations == n * a
+        for i in range(n):
+            assert batched.blockers(state, i) == single.blockers(state, i)
+            np.testing.assert_array_equal(batched.pickable(state, i), single.pickable(state, i))
+            np.testing.assert_array_equal(batched.reachable(state, i), single.reachable(state, i))
+        assert single.evaluations == n * a
+
+
+def test_cache_and_consistency(weights, states):
+    _, state, oracle = states[0]
+    model = NetFeasibility(oracle.workspace, weights)
+    t = state.target_index
+    first = model.blockers(state, t)
+    count = model.evaluations
+    assert count == len(oracle.workspace.approach_angles)
+    assert model.blockers(state, t) == first and model.evaluations == count  # cache hit
+    pick, reach = model.pickable(state, t), model.reachable(state, t)
+    assert model.evaluations == count
+    for k, blockers in enumerate(first):
+        assert t not in blockers
+        assert pick[k] == (reach[k] and not blockers)
+    assert model.throughput() > 0
+
+
+def test_place_options_are_network_checked_geometric_proposals(weights, states):
+    from tsad_drake.planning.pointcloud_sim import simulate_pick_place
+    from tsad_drake.planning.types import Action
+
+    _, state, oracle = states[0]
+    model = NetFeasibility(oracle.workspace, weights)
+    thetas = oracle.workspace.approach_angles
+    i = next(j for j in range(len(state.objects)) if j != state.target_index)
+    options = model.place_options(state, i, 0.0)
+    proposal = model.placement_model.place_options(state, i, 0.0)
+    assert options.shape == (len(oracle.workspace.cell_centres),)
+    kept = ~np.isnan(options)
+    assert not (kept & np.isnan(proposal)).any()
+    for c in np.nonzero(kept)[0]:
+        assert np.isclose(thetas, options[c]).any()
+        x, y = oracle.workspace.cell_centres[c]
+        nxt = simulate_pick_place(state, Action(state.objects[i].name, 0.0, x, y, options[c]))
+        k = int(np.argmin(np.abs(thetas - options[c])))
+        assert model.pickable(nxt, i)[k]
+    assert model.place_options(state, i, 0.0) is options  # memoised
+
+
+def test_missing_weights_are_bad_input(states, tmp_path):
+    with pytest.raises(UsageError, match="not found"):
+        NetFeasibility(states[0][2].workspace, tmp_path / "missing.pt")
+
+
+@pytest.mark.skipif(not DEFAULT_WEIGHTS.is_file(), reason="shipped weights not built yet")
+def test_make_feasibility_builds_the_net_model(states):
+    from tsad_drake.planning.feasibility import make_feasibility
+
+    _, _, oracle = states[0]
+    model = make_feasibility("net", oracle.scenario, oracle.workspace)
+    assert isinstance(model, NetFeasibility) and model.name == "net"

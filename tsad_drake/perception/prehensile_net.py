@@ -1,0 +1,177 @@
+"""The prehensile decision network: a small PointNet++ in plain PyTorch (no compiled extensions).
+
+Input: one query (see `prehensile_data.encode_query`): NUM_POINTS points with scaled xy in the
+approach frame (approach along +x, queried object at the origin) and per-point features (height,
+is-queried-object, is-wall). Two set-abstraction modules (farthest point sampling + ball query +
+shared MLP + max pool: 512 -> 128 centroids x 16 neighbours -> 32 centroids x 32 neighbours), then
+
+- `reach` head (MLP on the max-pooled global feature): the queried object fits the stroke at this
+  angle and its corridor misses the side walls;
+- `block` head (per point; SA2 features interpolated back to every input point, as in PointNet++'s
+  feature propagation, plus the point's own features and the global feature): the object this
+  point belongs to lies in the approach corridor. An object blocks when the mean probability over
+  its points exceeds 0.5.
+
+Pickable at theta = reach and no blocking object, so the planners' R_{theta,s} and their
+pickability answers come from one forward pass per (object, angle) and never disagree.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import torch
+from torch import nn
+
+
+@dc.dataclass
+class NetConfig:
+    """Sizes of the network (radii are in scaled units: metres / COORD_SCALE)."""
+
+    num_points: int = 512
+    in_features: int = 3
+    sa1_centroids: int = 128
+    sa1_neighbours: int = 16
+    sa1_radius: float = 0.25  #: 0.05 m
+    sa1_mlp: tuple[int, ...] = (16, 32)
+    sa2_centroids: int = 32
+    sa2_neighbours: int = 32
+    sa2_radius: float = 0.75  #: 0.15 m
+    sa2_mlp: tuple[int, ...] = (32, 64)
+    global_mlp: tuple[int, ...] = (64, 128)
+    head_mlp: tuple[int, ...] = (64,)
+    point_mlp: tuple[int, ...] = (32, 16)
+
+
+def farthest_point_sampling(xy: torch.Tensor, count: int) -> torch.Tensor:
+    """(B, count) indices of farthest point sampling of `xy` (B, N, D), starting at point 0."""
+    b, n, _ = xy.shape
+    pair = squared_distances(xy, xy)  # (B, N, N) once, then only gathers in the loop
+    idx = torch.zeros(b, count, dtype=torch.long, device=xy.device)
+    dist = torch.full((b, n), float("inf"), device=xy.device)
+    farthest = torch.zeros(b, 1, 1, dtype=torch.long, device=xy.device)
+    for k in range(count):
+        idx[:, k] = farthest[:, 0, 0]
+        dist = torch.minimum(dist, torch.gather(pair, 1, farthest.expand(-1, 1, n)).squeeze(1))
+        farthest = dist.argmax(-1).view(b, 1, 1)
+    return idx
+
+
+def squared_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """(B, M, N) squared distances between a (B, M, D) and b (B, N, D)."""
+    return ((a.unsqueeze(2) - b.unsqueeze(1)) ** 2).sum(-1)
+
+
+def ball_query(xy: torch.Tensor, centres: torch.Tensor, radius: float, count: int) -> torch.Tensor:
+    """(B, M, count) indices of up to `count` nearest points within `radius` of each centre;
+    slots with no point in the ball repeat the nearest one (always the centre itself here)."""
+    d2 = squared_distances(centres, xy)  # (B, M, N)
+    k = min(count, xy.shape[1])
+    near_d2, near = d2.topk(k, dim=-1, largest=False)
+    outside = near_d2 > radius * radius
+    near = torch.where(outside, near[..., :1].expand_as(near), near)
+    if k < count:
+        near = torch.cat([near, near[..., :1].expand(-1, -1, count - k)], dim=-1)
+    return near
+
+
+def gather(values: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+    """values (B, N, C) at idx (B, ...) -> (B, ..., C)."""
+    b = values.shape[0]
+    flat = idx.reshape(b, -1)
+    out = torch.gather(values, 1, flat.unsqueeze(-1).expand(-1, -1, values.shape[-1]))
+    return out.reshape(*idx.shape, values.shape[-1])
+
+
+def mlp(sizes: list[int], norm: bool = True) -> nn.Sequential:
+    """Linear layers, each followed by (LayerNorm and) ReLU."""
+    layers: list[nn.Module] = []
+    for k in range(len(sizes) - 1):
+        layers.append(nn.Linear(sizes[k], sizes[k + 1]))
+        layers += [nn.LayerNorm(sizes[k + 1]), nn.ReLU()] if norm else [nn.ReLU()]
+    return nn.Sequential(*layers)
+
+
+class SetAbstraction(nn.Module):
+    """FPS centroids, ball-query groups, shared MLP on (relative xy / radius, features), max pool."""
+
+    def __init__(self, centroids: int, neighbours: int, radius: float, in_features: int,
+                 sizes: tuple[int, ...]) -> None:
+        super().__init__()
+        self.centroids, self.neighbours, self.radius = centroids, neighbours, radius
+        self.mlp = mlp([in_features + 2, *sizes], norm=False)  # per neighbour: keep it cheap
+
+    def forward(self, xy: torch.Tensor, feats: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        centre_idx = farthest_point_sampling(xy, self.centroids)
+        centres = gather(xy, centre_idx)  # (B, M, 2)
+        groups = ball_query(xy, centres, self.radius, self.neighbours)  # (B, M, K)
+        rel = (gather(xy, groups) - centres.unsqueeze(2)) / self.radius
+        grouped = torch.cat([rel, gather(feats, groups)], dim=-1)  # (B, M, K, 2 + C)
+        return centres, self.mlp(grouped).max(dim=2).values
+
+
+def interpolate(xy: torch.Tensor, centres: torch.Tensor, values: torch.Tensor) -> torch.Tensor:
+    """values (B, M, C) at `centres` interpolated to `xy` (B, N, 2): inverse distance, 3 nearest."""
+    d2 = squared_distances(xy, centres)
+    near_d2, near = d2.topk(min(3, centres.shape[1]), dim=-1, largest=False)
+    weight = 1.0 / (near_d2 + 1e-8)
+    weight = weight / weight.sum(-1, keepdim=True)
+    return (gather(values, near) * weight.unsqueeze(-1)).sum(2)
+
+
+class PrehensileNet(nn.Module):
+    """forward(xy (B,N,2), feats (B,N,F)) -> (reach logit (B,), per-point block logits (B,N))."""
+
+    def __init__(self, config: NetConfig | None = None) -> None:
+        super().__init__()
+        cfg = self.config = config or NetConfig()
+        self.sa1 = SetAbstraction(cfg.sa1_centroids, cfg.sa1_neighbours, cfg.sa1_radius,
+                                  cfg.in_features, cfg.sa1_mlp)
+        self.sa2 = SetAbstraction(cfg.sa2_centroids, cfg.sa2_neighbours, cfg.sa2_radius,
+                                  cfg.sa1_mlp[-1], cfg.sa2_mlp)
+        self.global_mlp = mlp([cfg.sa2_mlp[-1] + 2, *cfg.global_mlp])
+        g = cfg.global_mlp[-1]
+        self.reach_head = nn.Sequential(mlp([g, *cfg.head_mlp]), nn.Linear(cfg.head_mlp[-1], 1))
+        # first point layer split in a per-point part and a per-sample (global) part: the same
+        # as one linear layer on the concatenation, without repeating the global product per point
+        width = cfg.point_mlp[0]
+        self.point_local = nn.Linear(2 + cfg.in_features + cfg.sa2_mlp[-1] + cfg.sa1_mlp[-1], width)
+        self.point_global = nn.Linear(g, width, bias=False)
+        self.point_head = nn.Sequential(nn.ReLU(), mlp(list(cfg.point_mlp), norm=False),
+                                        nn.Linear(cfg.point_mlp[-1], 1))
+
+    def forward(self, xy: torch.Tensor, feats: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        c1, f1 = self.sa1(xy, feats)
+        c2, f2 = self.sa2(c1, f1)
+        glob = self.global_mlp(torch.cat([c2, f2], dim=-1)).max(dim=1).values  # (B, G)
+        reach = self.reach_head(glob).squeeze(-1)
+        local = torch.cat([xy, feats, interpolate(xy, c2, f2), interpolate(xy, c1, f1)], dim=-1)
+        hidden = self.point_local(local) + self.point_global(glob).unsqueeze(1)
+        return reach, self.point_head(hidden).squeeze(-1)
+
+
+def object_block_probability(block_logits: torch.Tensor, ids: torch.Tensor,
+                             num_objects: int) -> torch.Tensor:
+    """(B, num_objects) mean block probability over each object's points (0 where it has none).
+
+    ids: (B, N) object index per point; negative ids (walls) are ignored.
+    """
+    b = block_logits.shape[0]
+    prob = torch.sigmoid(block_logits)
+    valid = ids >= 0
+    slot = torch.where(valid, ids, torch.full_like(ids, num_objects))
+    sums = torch.zeros(b, num_objects + 1, dtype=prob.dtype).scatter_add_(1, slot, prob)
+    counts = torch.zeros(b, num_objects + 1, dtype=prob.dtype).scatter_add_(
+        1, slot, valid.to(prob.dtype) + (~valid).to(prob.dtype))
+    return (sums / counts.clamp(min=1.0))[:, :num_objects]
+
+
+def query_scores(net: PrehensileNet, xy, feats, ids, queried: list[int],
+                 num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """(reach logits (B,), per-object block probabilities (B, num_objects)) of encoded queries
+    (NumPy arrays from `encode_query`); the queried object never counts as its own blocker."""
+    with torch.inference_mode():
+        reach, block = net(torch.from_numpy(xy), torch.from_numpy(feats))
+        ids_t = torch.from_numpy(ids.astype("int64"))
+        ids_t[ids_t == torch.tensor(queried).unsqueeze(1)] = -1
+        return reach, object_block_probability(block, ids_t, num_objects)

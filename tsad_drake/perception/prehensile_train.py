@@ -1,0 +1,349 @@
+"""Training, checkpoints and evaluation of the prehensile network (CPU, seeded).
+
+`net-eval` scores a FeasibilityModel against the oracle on fresh scenes: every (object, angle) of
+every state (no class balancing: the planners' distribution) for pickable (the decision the
+planners use), collide (some object in the corridor), blockers (the predicted set equals the
+oracle's R_{theta,s} exactly) and reach (fits the stroke, misses the walls); a majority-class
+classifier's pickable accuracy is the trivial baseline.
+
+A checkpoint is a torch file {"format": CHECKPOINT_FORMAT, "config": NetConfig fields,
+"encoding": the input constants it was trained with, "state_dict": ..., "meta": {...}}; loading
+checks all of them, so a file from another version or a corrupted one fails with one clear line.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from tsad_drake.cli import UsageError
+from tsad_drake.perception import prehensile_data as pdata
+from tsad_drake.perception.prehensile_net import (
+    NetConfig,
+    PrehensileNet,
+    object_block_probability,
+    query_scores,
+)
+
+CHECKPOINT_FORMAT = "tsad-prehensile-net-v1"
+#: the shipped weights, produced by `tsad train` (see README: model card)
+DEFAULT_WEIGHTS = Path(__file__).resolve().parent.parent / "data" / "prehensile_net.pt"
+BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-point blocker loss against the reach loss
+
+
+class WeightsError(UsageError):
+    """A weights file that is missing, corrupted or does not match this code (bad input: exit 2)."""
+
+
+def encoding_signature() -> dict:
+    """The input-encoding constants a checkpoint must agree with."""
+    return {name: getattr(pdata, name) for name in (
+        "NUM_POINTS", "MAX_QUERY_POINTS", "GRID", "COORD_SCALE", "HEIGHT_SCALE", "CROP_BACK",
+        "CROP_FRONT", "CROP_HALF_WIDTH", "NUM_FEATURES")}
+
+
+def save_checkpoint(net: PrehensileNet, path: Path, meta: dict) -> None:
+    tmp = Path(path).with_suffix(".tmp")
+    torch.save({"format": CHECKPOINT_FORMAT, "config": dc.asdict(net.config),
+                "encoding": encoding_signature(), "state_dict": net.state_dict(), "meta": meta}, tmp)
+    tmp.replace(path)
+
+
+def load_checkpoint(path: str | Path | None = None) -> tuple[PrehensileNet, dict]:
+    """(network in eval mode, meta) from `path` (default: the shipped weights).
+
+    Raises:
+        WeightsError: the file is missing, unreadable or from another model/encoding version.
+    """
+    path = Path(path) if path is not None else DEFAULT_WEIGHTS
+    if not path.is_file():
+        raise WeightsError(f"prehensile network weights not found: {path} "
+                           "(train them with `tsad train --data DIR --out FILE`)")
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # noqa: BLE001 - any unpickling failure means a bad file
+        raise WeightsError(f"cannot read prehensile network weights {path}: "
+                           f"{type(err).__name__}") from None
+    if not isinstance(ckpt, dict) or ckpt.get("format") != CHECKPOINT_FORMAT:
+        raise WeightsError(f"{path} is not a prehensile network checkpoint ({CHECKPOINT_FORMAT})")
+    if ckpt.get("encoding") != encoding_signature():
+        raise WeightsError(f"{path} was trained with another input encoding; retrain with `tsad train`")
+    try:
+        config = NetConfig(**{k: tuple(v) if isinstance(v, list) else v
+                              for k, v in ckpt["config"].items()})
+        net = PrehensileNet(config)
+        net.load_state_dict(ckpt["state_dict"])
+    except (TypeError, KeyError, RuntimeError) as err:
+        raise WeightsError(f"{path} does not match the prehensile network: "
+                           f"{str(err).splitlines()[0][:120]}") from None
+    net.eval()
+    return net, dict(ckpt.get("meta", {}))
+
+
+# -- training ------------------------------------------------------------------------------------
+def to_tensors(data: pdata.Samples, rows: np.ndarray) -> tuple[torch.Tensor, ...]:
+    return (torch.from_numpy(data.xy[rows].astype(np.float32)),
+            torch.from_numpy(data.feats[rows].astype(np.float32)),
+            torch.from_numpy(data.point_label[rows].astype(np.int64)),
+            torch.from_numpy(data.reach[rows].astype(np.float32)))
+
+
+def augment(xy: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
+    """Small random jitter of every point (sensor noise), 1 mm in scaled units."""
+    return xy + torch.randn(xy.shape, generator=generator) * (0.001 / pdata.COORD_SCALE)
+
+
+def losses(net: PrehensileNet, xy, feats, point_label, reach, pos_weight: float):
+    reach_logit, block_logit = net(xy, feats)
+    reach_loss = nn.functional.binary_cross_entropy_with_logits(reach_logit, reach)
+    mask = point_label >= 0
+    block_loss = nn.functional.binary_cross_entropy_with_logits(
+        block_logit[mask], point_label[mask].float(),
+        pos_weight=torch.tensor(pos_weight))
+    return reach_loss + BLOCK_LOSS_WEIGHT * block_loss, reach_logit, block_logit
+
+
+def predict_samples(net: PrehensileNet, data: pdata.Samples, rows: np.ndarray,
+                    batch: int = 128) -> tuple[np.ndarray, np.ndarray]:
+    """(reach prediction (Q,), collide prediction (Q,)) for dataset rows; a query collides when
+    some object other than the queried one has a mean point block probability above 0.5."""
+    reach, collide = [], []
+    with torch.no_grad():
+        for start in range(0, len(rows), batch):
+            part = rows[start:start + batch]
+            xy, feats, plabel, _ = to_tensors(data, part)
+            r, b = net(xy, feats)
+            ids = torch.from_numpy(data.ids[part].astype(np.int64))
+            ids = torch.where(plabel < 0, torch.full_like(ids, -1), ids)  # drop query and walls
+            prob = object_block_probability(b, ids, int(ids.max()) + 1 if ids.numel() else 1)
+            reach.append((r > 0).numpy())
+            collide.append((prob > 0.5).any(dim=1).numpy())
+    return np.concatenate(reach), np.concatenate(collide)
+
+
+def binary_metrics(pred: np.ndarray, truth: np.ndarray) -> dict:
+    pred, truth = pred.astype(bool), truth.astype(bool)
+    tp = int((pred & truth).sum())
+    fp = int((pred & ~truth).sum())
+    fn = int((~pred & truth).sum())
+    n = len(truth)
+    return {"n": n, "accuracy": round(float((pred == truth).mean()), 4) if n else math.nan,
+            "precision": round(tp / (tp + fp), 4) if tp + fp else math.nan,
+            "recall": round(tp / (tp + fn), 4) if tp + fn else math.nan,
+            "positives": int(truth.sum())}
+
+
+def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: float = 2e-3,
+          seed: int = 0, max_minutes: float = 30.0, threads: int = 2,
+          progress: bool = True, max_val_samples: int = 3000, calibrate_scenes: int = 16) -> dict:
+    """Train on the shards in `data_dir`, validate each epoch, keep the best checkpoint at `out`.
+
+    Stops after `epochs` or once `max_minutes` of wall clock have passed (checked per step); the
+    learning rate follows a cosine schedule over the planned steps or the time budget, whichever
+    runs out first. Validation uses a fixed subset of at most `max_val_samples` validation queries.
+    Finally the decision thresholds are calibrated on `calibrate_scenes` fresh scenes
+    (`calibrate_thresholds`). Returns a summary.
+    """
+    from tqdm import tqdm
+
+    torch.set_num_threads(threads)
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    gen = torch.Generator().manual_seed(seed)
+    data = pdata.load_dataset(data_dir)
+    splits = np.array([pdata.split_of(int(s)) for s in data.scene])
+    train_rows = np.nonzero(splits == "train")[0]
+    val_rows = np.nonzero(splits == "val")[0]
+    if len(val_rows) > max_val_samples:  # a fixed subset keeps validation quick on 2 cores
+        val_rows = np.sort(rng.choice(val_rows, max_val_samples, replace=False))
+    if len(train_rows) == 0 or len(val_rows) == 0:
+        raise ValueError(f"dataset {data_dir} needs scenes in the train and validation splits "
+                         "(seeds with seed % 10 == 8 are validation): generate more scenes")
+    labelled = data.point_label[train_rows]
+    positive = float((labelled == 1).sum()) / max(float((labelled >= 0).sum()), 1.0)
+    pos_weight = float(np.clip((1 - positive) / max(positive, 1e-6), 1.0, 10.0) ** 0.5)
+    net = PrehensileNet(NetConfig(num_points=pdata.NUM_POINTS))
+    opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=1e-4)
+    steps_per_epoch = math.ceil(len(train_rows) / batch)
+    total_steps = epochs * steps_per_epoch
+    start = time.perf_counter()
+    deadline = start + max_minutes * 60
+
+    def progress_fraction(k: int) -> float:  # of the planned steps or of the time budget
+        return min(1.0, max(k / total_steps, (time.perf_counter() - start) / (max_minutes * 60)))
+
+    sched = torch.optim.lr_scheduler.LambdaLR(
+        opt, lambda k: 0.02 + 0.98 * 0.5 * (1 + math.cos(math.pi * progress_fraction(k))))
+    best, history = -1.0, []
+    out = Path(out)
+    for epoch in range(epochs):
+        if time.perf_counter() > deadline:
+            break
+        net.train()
+        order = rng.permutation(train_rows)
+        bar = tqdm(range(steps_per_epoch), desc=f"epoch {epoch + 1}/{epochs}", unit="step",
+                   disable=not progress, leave=False)
+        running, timed_out = [], False
+        for step in bar:
+            xy, feats, plabel, reach = to_tensors(data, order[step * batch:(step + 1) * batch])
+            loss, _, _ = losses(net, augment(xy, gen), feats, plabel, reach, pos_weight)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            sched.step()
+            running.append(loss.item())
+            bar.set_postfix(loss=f"{np.mean(running[-50:]):.4f}")
+            if time.perf_counter() > deadline:
+                timed_out = True
+                break
+        bar.close()
+        net.eval()
+        val = evaluate_rows(net, data, val_rows)
+        score = val["pickable"]["accuracy"]
+        entry = {"epoch": epoch + 1, "train_loss": round(float(np.mean(running)), 5),
+                 "val_pickable_accuracy": score, "val_reach_accuracy": val["reach"]["accuracy"],
+                 "val_collide_accuracy": val["collide"]["accuracy"],
+                 "minutes": round((time.perf_counter() - start) / 60, 2)}
+        history.append(entry)
+        if progress:
+            print(f"epoch {epoch + 1}: loss {entry['train_loss']:.4f} val pickable acc {score:.4f} "
+                  f"reach {entry['val_reach_accuracy']:.4f} collide {entry['val_collide_accuracy']:.4f}"
+                  f" ({entry['minutes']:.1f} min)", flush=True)
+        if score > best:
+            best = score
+            save_checkpoint(net, out, {
+                "epoch": epoch + 1, "val": val, "seed": seed, "batch": batch, "lr": lr,
+                "train_samples": int(len(train_rows)), "val_samples": int(len(val_rows)),
+                "scenes": int(len(np.unique(data.scene))),
+                "dataset": pdata.dataset_fingerprint(data_dir), "pos_weight": pos_weight,
+                "seed_range": [int(data.scene.min()), int(data.scene.max())],
+                "minutes": round((time.perf_counter() - start) / 60, 2)})
+        if timed_out:
+            break
+    if calibrate_scenes > 0:
+        calibrate_thresholds(out, calibrate_scenes, progress=progress)
+    return {"best_val_pickable_accuracy": best, "epochs_run": len(history), "history": history,
+            "minutes": round((time.perf_counter() - start) / 60, 2), "weights": str(out)}
+
+
+def evaluate_rows(net: PrehensileNet, data: pdata.Samples, rows: np.ndarray) -> dict:
+    """Sample-level metrics (reach, collide, pickable) on dataset rows."""
+    reach, collide = predict_samples(net, data, rows)
+    true_collide = (data.point_label[rows] == 1).any(axis=1)
+    return {"reach": binary_metrics(reach, data.reach[rows]),
+            "collide": binary_metrics(collide, true_collide),
+            "pickable": binary_metrics(reach & ~collide, data.pickable[rows])}
+
+
+# -- evaluation on fresh scenes (`tsad net-eval`) ---------------------------------------------
+def evaluate_scenes(model_factory, scenes: int, seed_start: int, observer: str = "raycast",
+                    progress: bool = True) -> dict:
+    """Score `model_factory(workspace)` (a FeasibilityModel) against the oracle on scenes
+    seed_start..seed_start+scenes-1 (type SCENARIO_TYPES[seed % 4]); per type and "all"."""
+    from tqdm import tqdm
+
+    rows: dict[str, list] = {}
+    models: dict[tuple, object] = {}
+    evaluations, seconds = 0, 0.0
+    for seed in tqdm(range(seed_start, seed_start + scenes), desc="net-eval scenes", unit="scene",
+                     disable=not progress):
+        for _, state, oracle in pdata.scene_states(seed, observer):
+            ws = oracle.workspace
+            key = (ws.depth, ws.width)
+            model = models.get(key)
+            if model is None:
+                model = models[key] = model_factory(ws)
+            labels = pdata.oracle_labels(oracle, state)
+            start = time.perf_counter()
+            if hasattr(model, "evaluate_all"):
+                model.evaluate_all(state)
+            pred = [(model.pickable(state, i), model.blockers(state, i), model.reachable(state, i))
+                    for i in range(len(state.objects))]
+            seconds += time.perf_counter() - start
+            evaluations += len(state.objects) * len(ws.approach_angles)
+            out = rows.setdefault(pdata.scenario_type(seed), [])
+            for i, (pick, blockers, reach) in enumerate(pred):
+                for a in range(len(ws.approach_angles)):
+                    out.append((pick[a], labels.pickable[i, a], bool(blockers[a]),
+                                bool(labels.blockers[i][a]), blockers[a] == labels.blockers[i][a],
+                                reach[a], labels.reach[i, a]))
+    result = {name: _metrics(np.array(r, dtype=bool)) for name, r in sorted(rows.items())}
+    if rows:
+        result["all"] = _metrics(np.array([x for r in rows.values() for x in r], dtype=bool))
+    result["queries_per_second"] = round(evaluations / seconds, 1) if seconds else 0.0
+    return result
+
+
+def _metrics(r: np.ndarray) -> dict:
+    majority = max(r[:, 1].mean(), 1 - r[:, 1].mean())
+    return {"pickable": binary_metrics(r[:, 0], r[:, 1]),
+            "collide": binary_metrics(r[:, 2], r[:, 3]),
+            "blockers_exact": round(float(r[:, 4].mean()), 4),
+            "reach": binary_metrics(r[:, 5], r[:, 6]),
+            "majority_pickable_accuracy": round(float(majority), 4)}
+
+
+def format_table(result: dict) -> str:
+    """Fixed-width table: per scenario type, pickable accuracy/precision/recall and the rest."""
+    head = (f"{'scenario':<9} {'queries':>7} {'pick acc':>8} {'prec':>6} {'recall':>6} "
+            f"{'majority':>8} {'collide acc':>11} {'R exact':>7} {'reach acc':>9}")
+    lines = [head, "-" * len(head)]
+    for name, m in result.items():
+        if not isinstance(m, dict):
+            continue
+        p = m["pickable"]
+        lines.append(f"{name:<9} {p['n']:>7d} {p['accuracy']:>8.4f} {p['precision']:>6.3f} "
+                     f"{p['recall']:>6.3f} {m['majority_pickable_accuracy']:>8.4f} "
+                     f"{m['collide']['accuracy']:>11.4f} {m['blockers_exact']:>7.4f} "
+                     f"{m['reach']['accuracy']:>9.4f}")
+    lines.append(f"network queries per second (batched, incl. encoding): {result['queries_per_second']}")
+    return "\n".join(lines)
+
+
+CALIBRATION_SEED_START = 200_000  #: fresh scenes for threshold calibration (not train, not eval)
+
+
+def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALIBRATION_SEED_START,
+                         progress: bool = True) -> dict:
+    """Pick the reach logit and block probability thresholds that maximise pickable accuracy on
+    fresh scenes (every (object, angle): the planners' distribution, not the balanced training
+    one) and store them in the checkpoint's meta."""
+    from tqdm import tqdm
+
+    net, meta = load_checkpoint(weights)
+    reach_logits, block_probs, true_pick = [], [], []
+    for seed in tqdm(range(seed_start, seed_start + scenes), desc="calibration scenes",
+                     disable=not progress):
+        for _, state, oracle in pdata.scene_states(seed):
+            thetas = oracle.workspace.approach_angles
+            labels = pdata.oracle_labels(oracle, state)
+            cloud = pdata.state_cloud(state, oracle.workspace)
+            pairs = [(i, k) for i in range(len(state.objects)) for k in range(len(thetas))]
+            xy, feats, ids = pdata.encode_batch(cloud, pairs, thetas)
+            reach, prob = query_scores(net, xy, feats, ids, [i for i, _ in pairs],
+                                       len(state.objects))
+            prob = prob.numpy()
+            reach_logits.append(reach.numpy())
+            block_probs.append(prob.max(axis=1))  # the most likely blocker decides
+            true_pick.append(np.array([labels.pickable[p] for p in pairs]))
+    reach_logits, block_probs = np.concatenate(reach_logits), np.concatenate(block_probs)
+    true_pick = np.concatenate(true_pick)
+    best = (-1.0, 0.0, 0.5)
+    for rt in np.linspace(-2.0, 4.0, 25):
+        for bt in np.linspace(0.2, 0.8, 13):
+            acc = float((((reach_logits > rt) & (block_probs <= bt)) == true_pick).mean())
+            if acc > best[0] + 1e-9:
+                best = (acc, float(rt), float(bt))
+    default = float((((reach_logits > 0) & (block_probs <= 0.5)) == true_pick).mean())
+    meta.update(reach_threshold=best[1], block_threshold=best[2],
+                calibration={"seeds": [seed_start, seed_start + scenes - 1],
+                             "queries": int(len(true_pick)), "accuracy": round(best[0], 4),
+                             "accuracy_default_thresholds": round(default, 4)})
+    save_checkpoint(net, Path(weights), meta)
+    return meta["calibration"] | {"reach_threshold": best[1], "block_threshold": best[2]}

@@ -1,0 +1,163 @@
+"""The `net` FeasibilityModel: the prehensile decision network answers the planners' questions.
+
+One network query is (state, object i, approach angle theta) -> whether i fits the stroke and its
+corridor misses the walls (`reach`) and, per object j, whether j lies in the corridor (mean per-point
+block probability of j's points > 0.5). From these:
+
+- blockers(state, i)[a]: R_{theta_a, s} for i (the smallest rearrangement set when i is the target);
+- pickable(state, i)[a]: reach and no blocker, so theta_pick = a pickable angle;
+- place_options(state, i, theta_pick): theta_place per grid cell. The point-cloud simulation
+  proposes cells where i's perceived footprint fits (inside the shelf, clear of the others'
+  footprints; the `geometric` model's placement test) with an angle; the network then decides on
+  the next state s' whether i is pickable there at that angle (the paper's theta_place from s').
+
+Queries are encoded and run in batches; answers are cached per state key (states are immutable),
+so a repeated query inside a search costs a dictionary lookup. `evaluations` counts forward passes
+per query (network evaluations) for throughput reports.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from tsad_drake.perception import prehensile_data as pdata
+from tsad_drake.perception.prehensile_net import query_scores
+from tsad_drake.planning.types import Action, PlanningState, Workspace
+
+#: states kept in the cache before it is cleared
+CACHE_LIMIT = 50_000
+
+
+class NetFeasibility:
+    """FeasibilityModel backed by the prehensile network (weights: the shipped file by default)."""
+
+    name = "net"
+
+    def __init__(self, workspace: Workspace, weights: str | Path | None = None,
+                 batch_size: int = 64, threads: int | None = None,
+                 placement_gap: float | None = None) -> None:
+        from tsad_drake.perception.prehensile_train import load_checkpoint
+        from tsad_drake.planning.feasibility import GeometricFeasibility
+        from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP
+
+        self.workspace = workspace
+        self.net, self.meta = load_checkpoint(weights)  # WeightsError (a UsageError) on bad files
+        self.batch_size = batch_size
+        #: decision thresholds calibrated by `tsad train` on fresh scenes (defaults: logit 0, p 0.5)
+        self.reach_threshold = float(self.meta.get("reach_threshold", 0.0))
+        self.block_threshold = float(self.meta.get("block_threshold", 0.5))
+        if threads is not None:
+            torch.set_num_threads(threads)
+        gap = DEFAULT_PLACEMENT_GAP if placement_gap is None else placement_gap
+        self.placement_model = GeometricFeasibility(workspace, gap)
+        self.placement_gap = gap
+        #: state key -> {(object, angle index): (reach, blockers)}
+        self._answers: dict[tuple, dict[tuple[int, int], tuple[bool, frozenset[int]]]] = {}
+        self._clouds: dict[tuple, pdata.StateCloud] = {}
+        self._place_memo: dict[tuple, np.ndarray] = {}
+        self.evaluations = 0  #: network queries run (cache misses)
+        self.network_seconds = 0.0  #: wall time spent encoding and running them
+
+    # -- batched core --------------------------------------------------------------------------
+    def _cloud(self, state: PlanningState) -> pdata.StateCloud:
+        key = state.key()
+        cloud = self._clouds.get(key)
+        if cloud is None:
+            cloud = self._clouds[key] = pdata.state_cloud(state, self.workspace)
+        return cloud
+
+    def evaluate(self, requests: list[tuple[PlanningState, int, int]]) -> None:
+        """Run every uncached (state, object index, angle index) request, in batches."""
+        if len(self._answers) > CACHE_LIMIT:
+            self._answers.clear()
+            self._clouds.clear()
+            self._place_memo.clear()
+        todo, seen = [], set()
+        for state, i, k in requests:
+            key = state.key()
+            if (i, k) in self._answers.get(key, {}) or (key, i, k) in seen:
+                continue
+            seen.add((key, i, k))
+            todo.append((state, i, k))
+        if not todo:
+            return
+        start = time.perf_counter()
+        thetas = self.workspace.approach_angles
+        for first in range(0, len(todo), self.batch_size):
+            chunk = todo[first:first + self.batch_size]
+            encoded = [pdata.encode_query(self._cloud(s), i, float(thetas[k]), k) for s, i, k in chunk]
+            xy, feats, ids = (np.stack(p) for p in zip(*encoded))
+            num = max(len(s.objects) for s, _, _ in chunk)
+            reach, prob = query_scores(self.net, xy, feats, ids, [i for _, i, _ in chunk], num)
+            prob = prob.numpy()
+            for row, (s, i, k) in enumerate(chunk):
+                blockers = frozenset(np.nonzero(
+                    prob[row, :len(s.objects)] > self.block_threshold)[0].tolist()) - {i}
+                self._answers.setdefault(s.key(), {})[(i, k)] = (
+                    bool(reach[row] > self.reach_threshold), blockers)
+        self.evaluations += len(todo)
+        self.network_seconds += time.perf_counter() - start
+
+    def _object_answers(self, state: PlanningState, index: int) -> list[tuple[bool, frozenset[int]]]:
+        num_angles = len(self.workspace.approach_angles)
+        self.evaluate([(state, index, k) for k in range(num_angles)])
+        answers = self._answers[state.key()]
+        return [answers[(index, k)] for k in range(num_angles)]
+
+    def evaluate_all(self, state: PlanningState) -> None:
+        """Answer every (object, angle) of `state` in one batch (prefetch for planners)."""
+        num_angles = len(self.workspace.approach_angles)
+        self.evaluate([(state, i, k) for i in range(len(state.objects)) for k in range(num_angles)])
+
+    # -- FeasibilityModel ----------------------------------------------------------------------
+    def blockers(self, state: PlanningState, index: int) -> list[frozenset[int]]:
+        """Per approach angle, the objects the network puts in the corridor to object `index`."""
+        return [b for _, b in self._object_answers(state, index)]
+
+    def reachable(self, state: PlanningState, index: int) -> np.ndarray:
+        """(A,) the network says object `index` fits the stroke and its corridor misses the walls."""
+        return np.array([r for r, _ in self._object_answers(state, index)], dtype=bool)
+
+    def pickable(self, state: PlanningState, index: int) -> np.ndarray:
+        """(A,) reachable and no blocker, per approach angle."""
+        return np.array([r and not b for r, b in self._object_answers(state, index)], dtype=bool)
+
+    def place_options(self, state: PlanningState, index: int, theta_pick: float) -> np.ndarray:
+        """(C,) theta_place per grid cell for object `index` picked at theta_pick; nan where none.
+
+        Cells and a candidate angle come from the point-cloud placement test (footprint fits, the
+        least rotation that the perceived geometry allows); the network keeps the cell when object
+        `index` is pickable at that angle in the simulated next state s'.
+        """
+        from tsad_drake.planning.pointcloud_sim import simulate_pick_place
+
+        memo_key = (state.key(), index, round(float(theta_pick), 9))
+        if memo_key in self._place_memo:
+            return self._place_memo[memo_key]
+        proposal = self.placement_model.place_options(state, index, theta_pick)
+        cells = np.nonzero(~np.isnan(proposal))[0]
+        thetas = self.workspace.approach_angles
+        name = state.objects[index].name
+        requests = []
+        for c in cells:
+            x, y = self.workspace.cell_centres[c]
+            nxt = simulate_pick_place(state, Action(name, float(theta_pick), float(x), float(y),
+                                                    float(proposal[c])))
+            k = int(np.argmin(np.abs(thetas - proposal[c])))
+            requests.append((nxt, index, k))
+        self.evaluate(requests)
+        result = np.full(len(self.workspace.cell_centres), np.nan)
+        for c, (nxt, i, k) in zip(cells, requests):
+            reach, blockers = self._answers[nxt.key()][(i, k)]
+            if reach and not blockers:
+                result[c] = proposal[c]
+        self._place_memo[memo_key] = result
+        return result
+
+    def throughput(self) -> float:
+        """Network evaluations per second of network time so far (0 before any)."""
+        return self.evaluations / self.network_seconds if self.network_seconds else 0.0
