@@ -60,8 +60,6 @@ def test_bad_inputs_exit_2_with_one_line(tmp_path, capsys, overlapping_yaml):
         ["plan", "--scenario", "1", "--planner", "astar", "--out", str(tmp_path / "p")],
         ["plan", "--scenario", "1", "--planner", "tsad", "--max-actions", "0",
          "--out", str(tmp_path / "p")],
-        ["plan", "--scenario", "1", "--planner", "tsad", "--feasibility", "net",
-         "--out", str(tmp_path / "p")],
         ["bench", "--scenario", "1", "--planner", "tsad", "--episodes", "0",
          "--out", str(tmp_path / "b.json")],
         ["bench", "--scenario", str(overlapping_yaml), "--planner", "tsad",

@@ -97,9 +97,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
                    help="label: the renderer's label image (stands in for instance segmentation); "
                         "cluster: DBSCAN on the fused point cloud alone (default label)")
+    from tsad_drake.cli_net import add_net_parsers
     from tsad_drake.cli_plan import add_plan_parsers
 
     add_plan_parsers(sub, _add_scenario_args)
+    add_net_parsers(sub)
     return parser
 
 
@@ -128,9 +130,10 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger("drake").setLevel(logging.WARNING)  # Drake's INFO lines are not for users
     parser = build_parser()
     args = parser.parse_args(argv)
+    from tsad_drake.cli_net import NET_COMMANDS
     from tsad_drake.cli_plan import PLAN_COMMANDS
 
-    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS}
+    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS, **NET_COMMANDS}
     try:
         return commands[args.command](args)
     except (UsageError, ScenarioError) as err:

@@ -20,7 +20,7 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
     p.add_argument("--feasibility", default="geometric", choices=FEASIBILITY_NAMES,
                    help="prehensile feasibility model the planner queries: geometric (gripper "
                         "swept volume against perceived point clouds; default), oracle (true "
-                        "geometry) or net (the learned network; not shipped yet)")
+                        "geometry) or net (the shipped PointNet++ prehensile network)")
     p.add_argument("--ablation", default="none", choices=ABLATIONS,
                    help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none)")
     p.add_argument("--observer", default=default_observer, choices=OBSERVERS,
@@ -78,8 +78,9 @@ def _validate_common(args: argparse.Namespace) -> None:
     if args.max_actions <= 0:
         raise UsageError("--max-actions must be at least 1")
     if args.feasibility == "net":
-        raise UsageError("--feasibility net needs the trained prehensile network, which is not "
-                         "shipped yet; use geometric or oracle")
+        from tsad_drake.perception.prehensile_train import load_checkpoint
+
+        load_checkpoint()  # a missing or mismatched weights file: one line, exit 2
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
