@@ -127,6 +127,8 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    import pydrake.common  # noqa: F401  (hooks the "drake" logger's level to Drake's own)
+
     logging.getLogger("drake").setLevel(logging.WARNING)  # Drake's INFO lines are not for users
     parser = build_parser()
     args = parser.parse_args(argv)

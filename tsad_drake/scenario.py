@@ -57,6 +57,9 @@ class GripperConfig:
     grasp_margin: float = 0.005  #: m, an object must be at least this much narrower than the stroke
     swept_half_width: float = 0.055  #: m, half the width of the open fingers, swept while approaching
     finger_reach: float = 0.015  #: m, how far past the grasp centre the fingertips' sweep extends
+    #: m, safety margin the planners add around the swept corridor (the world model judges contact
+    #: without it); raising it keeps planned approaches further from the motion planner's bound
+    planning_clearance: float = 0.0
 
 
 @dc.dataclass

@@ -79,9 +79,11 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
     observer = make_observer(settings.observer, scenario, settings.segmentation)
     action_check = None
     if settings.motion:
-        from tsad_drake.motion.verify import motion_check
+        from tsad_drake.motion.verify import is_pick_failure, motion_check
 
-        action_check = motion_check
+        def action_check(truth: Scenario, action) -> tuple[bool, str]:
+            ok, why = motion_check(truth, action)
+            return ok, ("" if ok else ("pick: " if is_pick_failure(why) else "place: ") + why)
     result = run_episode(scenario, planner, settings.feasibility, observer, config, seed,
                          closed_loop=settings.closed_loop, max_actions=settings.max_actions,
                          planner_name=settings.planner, action_check=action_check)

@@ -21,7 +21,7 @@ from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.feasibility import make_feasibility
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.tsad import action_key
+from tsad_drake.planning.tsad import action_key, object_key
 from tsad_drake.planning.types import Action, Plan, PlanningState
 from tsad_drake.scenario import Scenario
 
@@ -95,7 +95,8 @@ def _true_name(world: WorldModel, sim: PlanningState, action: Action) -> str:
         return world.nearest(obj.x, obj.y)
 
 
-#: an action check: (current true scene, action naming a true object) -> (ok, reason)
+#: an action check: (current true scene, action naming a true object) -> (ok, reason); a reason
+#: starting with "pick" says the object itself cannot be picked, whatever the placement
 ActionCheck = Callable[[Scenario, Action], tuple[bool, str]]
 
 
@@ -204,7 +205,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         if executed:
             excluded = []
         if rejected is not None:
-            excluded.append(action_key(rejected))
+            pick = result.motion_checks[-1]["failure"].startswith("pick")
+            excluded.append(object_key(rejected.object) if pick else action_key(rejected))
             if len(excluded) > max_rejections:
                 reason = f"no motion-feasible action after {max_rejections} rejections"
                 break

@@ -46,7 +46,9 @@ SHELF_PANELS = ("floor", "back", "left", "right", "top")
 class MotionConfig:
     """Keyframe geometry, clearances, IK, trajectory optimisation and verification settings."""
 
-    clearance: float = 0.003  #: m, robot (arm, gripper) vs shelf, ground and other objects
+    #: m, robot (arm, gripper) vs shelf, ground and other objects. The planners and the world model
+    #: count contact at zero distance, so a larger bound here rejects actions they consider safe
+    clearance: float = 0.001
     finger_clearance: float = 0.001  #: m, open gripper vs the object it grasps / released
     held_clearance: float = 0.002  #: m, held object vs shelf walls and other objects
     floor_clearance: float = 0.001  #: m, held object vs the shelf floor
@@ -56,6 +58,9 @@ class MotionConfig:
     palm_margin: float = 0.005  #: m, gap kept between the palm and a long object's near face
     grasp_height_min: float = 0.055  #: m, lowest tcp height above the shelf floor
     finger_gap: float = 0.0005  #: m, each pad's gap to the held object when closed
+    #: m, each pad's gap to the object while approaching and releasing: the fingers open only
+    #: this much wider than the object (pre-shaped grasp), never beyond the full stroke
+    preshape_gap: float = 0.012
     ik_seeds: int = 6  #: IK attempts per keyframe (previous keyframe, home, perturbed)
     ik_position_tolerance: float = 1e-4  #: m, per axis, tcp position
     ik_orientation_tolerance_deg: float = 0.1  #: deg, gripper orientation

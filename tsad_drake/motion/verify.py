@@ -197,8 +197,9 @@ class _ActionPlanner:
             raise MotionFailure(f"object {obj.name} is {2 * closed * 1000:.0f} mm wide across the "
                                 f"gripper at theta_pick: wider than its stroke")
         pick = MotionModel(self.shelf, self.X_WS, self.objects, config, near=obj.name)
-        q_pre = self.keyframe(pick, "pre_grasp", targets["pre_grasp"], q_start, FINGER_OPEN)
-        q_grasp = self.keyframe(pick, "grasp", targets["grasp"], q_pre, FINGER_OPEN)
+        opening = min(FINGER_OPEN, closed + config.preshape_gap)  # pre-shaped fingers
+        q_pre = self.keyframe(pick, "pre_grasp", targets["pre_grasp"], q_start, opening)
+        q_grasp = self.keyframe(pick, "grasp", targets["grasp"], q_pre, opening)
         X_WO = self.X_WS @ X_SO(obj) @ RigidTransform([0.0, 0.0, config.lift_gap])
         self.X_TO = pick.X_WT(q_grasp).inverse() @ X_WO
         carry = MotionModel(self.shelf, self.X_WS, self.objects, config, Held(obj, self.X_TO))
@@ -209,8 +210,8 @@ class _ActionPlanner:
             q[name] = previous = self.keyframe(carry, name, targets[name], previous, closed)
         place = MotionModel(self.shelf, self.X_WS, self.after, config, near=obj.name)
         q_released = q["place"].copy()
-        q_released[place.finger_indices] = FINGER_OPEN
-        q_post = self.keyframe(place, "post_place", targets["post_place"], q_released, FINGER_OPEN)
+        q_released[place.finger_indices] = opening
+        q_post = self.keyframe(place, "post_place", targets["post_place"], q_released, opening)
 
         self.move(pick, "start", "pre_grasp", q_start, q_pre)
         self.move(pick, "pre_grasp", "grasp", q_pre, q_grasp)
@@ -301,3 +302,18 @@ def motion_check(scenario: Scenario, action: Action, config: MotionConfig | None
     motion = plan_action(scenario, scenario.objects, action,
                          ready_q(scenario, scenario.objects, config, X_WS), config, X_WS)
     return motion.verified, motion.failure
+
+
+#: keyframes of the pick half of an action (failures there do not depend on the placement)
+PICK_KEYFRAMES = ("pre_grasp", "grasp", "lift", "retreat")
+
+
+def is_pick_failure(failure: str) -> bool:
+    """Whether a named failure lies in the pick half (the object cannot be taken at theta_pick)."""
+    words = failure.split()
+    if len(words) < 2 or words[0] not in ("keyframe", "segment"):
+        return False
+    name = words[1].rstrip(":")
+    if words[0] == "keyframe":
+        return name in PICK_KEYFRAMES
+    return name == "close" or name.split("->")[-1] in PICK_KEYFRAMES

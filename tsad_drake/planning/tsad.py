@@ -174,6 +174,11 @@ def action_key(action: Action) -> tuple[str, float, float]:
     return (action.object, round(action.x, 4), round(action.y, 4))
 
 
+def object_key(name: str) -> tuple[str, float, float]:
+    """An exclusion of every relocation of object `name` (it cannot be picked)."""
+    return (name, math.nan, math.nan)
+
+
 class SubSearch:
     """One subgoal-conditioned MCTS from `root` toward removing a member of R_{theta*,root}."""
 
@@ -232,7 +237,9 @@ class SubSearch:
         if node.untried is None:
             acts = legal_actions(self.feasibility, node.state, self.workspace, self.theta)
             if node.parent is None and self.excluded:
-                acts = [a for a in acts if action_key(a) not in self.excluded]
+                banned = {key[0] for key in self.excluded if math.isnan(key[1])}
+                acts = [a for a in acts
+                        if a.object not in banned and action_key(a) not in self.excluded]
             acts = [acts[i] for i in self.rng.permutation(len(acts))]
             if self.config.rollout_bias > 0:
                 # untried actions are popped from the end: relevant objects' actions come first
