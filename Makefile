@@ -32,8 +32,12 @@ $(STAMP): pyproject.toml | system-deps
 
 setup: system-deps $(STAMP)
 
+# The main job: scenario 1 seed 0 rendered in the Drake station, perceived, planned by TSAD,
+# every pick-and-place turned into a verified UR5e motion, and a Meshcat replay written.
+DEMO_FEASIBILITY ?= geometric
 demo: setup
-	$(VENV)/bin/tsad render --scenario 1 --seed 0 --out out/demo
+	$(VENV)/bin/tsad plan --scenario 1 --seed 0 --planner tsad --feasibility $(DEMO_FEASIBILITY) \
+	  --observer drake --motion --out out/demo
 
 test: setup
 	$(VENV)/bin/pytest -q

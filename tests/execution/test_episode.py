@@ -1,12 +1,17 @@
 """One closed-loop episode end to end (ray-cast observation, oracle TSAD, world model)."""
 
 import json
+import math
 
+import numpy as np
 import pytest
 
 from tsad_drake.execution.episode import run_episode
 from tsad_drake.perception.observe import observe_raycast
+from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.planning.pick_veto import PickVeto
 from tsad_drake.planning.registry import get_planner, make_config
+from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.scenario_generator import generate_scenario
 
 
@@ -70,3 +75,43 @@ def test_always_rejecting_check_ends_the_episode_as_a_failure():
     assert not result.success and not result.actions
     assert "no motion-feasible action" in result.failure_reason
     assert len(result.motion_checks) == 4
+
+
+def test_a_pick_rejected_at_one_angle_is_retried_at_another():
+    scenario = generate_scenario("1", 1)
+    observe = lambda s: observe_raycast(s).scene  # noqa: E731
+    baseline = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
+                           seed=1, planner_name="tsad")
+    first = baseline.actions[0]
+    vetoed = (first["true_object"], round(first["theta_pick_deg"]))
+
+    def check(truth, action):  # stands in for motion planning: one object not at one angle
+        bad = (action.object, round(math.degrees(action.theta_pick))) == vetoed
+        return (not bad, "pick: keyframe grasp: no IK" if bad else "")
+
+    result = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
+                         seed=1, planner_name="tsad", action_check=check)
+    assert result.success, result.failure_reason
+    picks = [(a["true_object"], round(a["theta_pick_deg"])) for a in result.actions]
+    assert vetoed not in picks
+    refused = [c for c in result.motion_checks if not c["verified"]]
+    assert refused and all((c["true_object"], round(c["theta_pick_deg"])) == vetoed for c in refused)
+    # the object is still movable: it is refused once, then taken at another angle or not needed
+    assert len(refused) == 1
+
+
+def test_pick_veto_rules_out_only_the_vetoed_angle():
+    scenario = generate_scenario("1", 1)
+    workspace = make_workspace(scenario)
+    state = state_from_perception(observe_raycast(scenario).scene)
+    base = make_feasibility("oracle", scenario, workspace)
+    i = next(i for i in range(len(state.objects)) if base.pickable(state, i).sum() >= 2)
+    k = int(np.nonzero(base.pickable(state, i))[0][0])
+    vetoed = PickVeto(base, {(state.objects[i].name, k)})
+    expected = base.pickable(state, i).copy()
+    expected[k] = False
+    assert np.array_equal(vetoed.pickable(state, i), expected)
+    for j in range(len(state.objects)):
+        assert vetoed.blockers(state, j) == base.blockers(state, j)
+        if j != i:
+            assert np.array_equal(vetoed.pickable(state, j), base.pickable(state, j))

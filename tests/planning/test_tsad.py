@@ -12,6 +12,7 @@ import pytest
 from tsad_drake.execution.world import WorldModel
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.planning.plan_check import plan_still_valid
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.planning.tsad import TSADConfig, plan_tsad
@@ -159,3 +160,28 @@ def test_unknown_model_is_a_value_error():
     scenario = walled_in_scene()
     with pytest.raises(ValueError, match="unknown feasibility"):
         make_feasibility("magic", scenario, make_workspace(scenario))
+
+
+@pytest.mark.parametrize("key", SOLVED)
+def test_plan_check_accepts_the_plan_and_rejects_a_cut_or_broken_one(scenes, plans, key):
+    scenario, workspace, state = scenes[key]
+    plan = plans[key]
+    feasibility = make_feasibility("oracle", scenario, workspace)
+    assert plan.success and plan.actions
+    assert plan_still_valid(state, plan.actions, plan.theta_star, feasibility, workspace)
+    # without its last action the target is still blocked at theta*
+    assert not plan_still_valid(state, plan.actions[:-1], plan.theta_star, feasibility, workspace)
+    # an action on an object that is not in the state, or that moves the target, is not valid
+    ghost = dc.replace(plan.actions[0], object="no-such-object")
+    assert not plan_still_valid(state, [ghost, *plan.actions[1:]], plan.theta_star, feasibility,
+                                workspace)
+    moves_target = dc.replace(plan.actions[0], object=state.target)
+    assert not plan_still_valid(state, [moves_target, *plan.actions[1:]], plan.theta_star,
+                                feasibility, workspace)
+    # the rest of the plan, from the state its first sub-search leads to, is valid there too
+    after = state
+    first = [a for a in plan.actions if a.sub_search == plan.actions[0].sub_search]
+    for action in first:
+        after = simulate_pick_place(after, action)
+    assert plan_still_valid(after, plan.actions[len(first):], plan.theta_star, feasibility,
+                            workspace)

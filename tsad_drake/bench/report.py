@@ -56,6 +56,25 @@ def _difficulty_lines(columns: dict[str, dict]) -> list[str]:
                 mean = sum(r["num_actions"] for r in finished) / len(finished)
                 lines.append(f"- optimal finished on {len(finished)}/{len(doc['rows'])} scenes; "
                              f"mean optimal number of actions there: {mean:.2f}")
+    return lines + _optimality_lines(columns)
+
+
+def _optimality_lines(columns: dict[str, dict]) -> list[str]:
+    """Each planner's actions against `optimal` on the scenes where both succeeded."""
+    if "optimal" not in columns:
+        return []
+    floor = {r["seed"]: r["num_actions"] for r in columns["optimal"]["rows"]
+             if r.get("optimal_finished") and r.get("success")}
+    lines = []
+    for label, doc in columns.items():
+        if label == "optimal":
+            continue
+        pairs = [(r["num_actions"], floor[r["seed"]]) for r in doc["rows"]
+                 if r.get("success") and r["seed"] in floor]
+        if pairs:
+            mine, best = (sum(p[i] for p in pairs) / len(pairs) for i in (0, 1))
+            lines.append(f"- {label} vs optimal on the {len(pairs)} scenes both solved: "
+                         f"{mine:.2f} vs {best:.2f} actions ({100 * (mine / best - 1):+.0f}%)")
     return lines
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -19,9 +20,11 @@ from tsad_drake.execution.world import WorldModel
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.planning.pick_veto import PickVeto
+from tsad_drake.planning.plan_check import replay_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.tsad import action_key, object_key
+from tsad_drake.planning.tsad import action_key
 from tsad_drake.planning.types import Action, Plan, PlanningState
 from tsad_drake.scenario import Scenario
 
@@ -96,7 +99,7 @@ def _true_name(world: WorldModel, sim: PlanningState, action: Action) -> str:
 
 
 #: an action check: (current true scene, action naming a true object) -> (ok, reason); a reason
-#: starting with "pick" says the object itself cannot be picked, whatever the placement
+#: starting with "pick" says the object cannot be picked at theta_pick, whatever the placement
 ActionCheck = Callable[[Scenario, Action], tuple[bool, str]]
 
 
@@ -126,6 +129,17 @@ def _execute(world: WorldModel, state: PlanningState, actions: list[Action],
     return len(actions), None
 
 
+def _reused(pending: Plan, state: PlanningState, feasibility, workspace) -> Plan | None:
+    """The rest of the last plan when the new observation still admits it, else None."""
+    start = time.perf_counter()
+    actions = replay_plan(state, pending.actions, pending.theta_star, feasibility, workspace)
+    if actions is None:
+        return None
+    stats = {**pending.stats, "reused": True}
+    return dc.replace(pending, actions=actions, planning_time_s=time.perf_counter() - start,
+                      stats=stats)
+
+
 def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_name: str,
                 observe: Callable[[Scenario], PerceivedScene], config: Any, seed: int,
                 closed_loop: bool = True, max_actions: int = DEFAULT_MAX_ACTIONS,
@@ -142,7 +156,9 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         seed: seeds the planner's and the random relocations' generator.
         closed_loop: execute the first sub-search only, then observe and plan again; a planner
             with a `max_sub_searches` config field is asked for that one sub-search only, and a
-            plan that stops short of the target is still executed when it has actions.
+            plan that stops short of the target is still executed when it has actions. A
+            planner whose config has `reuse_plans` set keeps the rest of its last plan while the
+            new observation still admits it (`planning.plan_check`).
         max_actions: pick-and-places allowed in the episode, random ones included (>= 1).
         planner_name: recorded name (default: the first plan's `planner` field).
         action_check: verifies each action before it is executed (motion planning). A planner
@@ -162,7 +178,10 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
                            closed_loop=closed_loop)
     reason = ""
     can_exclude = hasattr(config, "excluded_actions")
-    excluded: list[tuple[str, float, float]] = []
+    excluded: list[tuple[str, float, float]] = []  #: relocations motion planning rejected
+    vetoes: set[tuple[str, int]] = set()  #: (object, angle index) picks motion planning rejected
+    reuse_plans = closed_loop and getattr(config, "reuse_plans", False)
+    pending: Plan | None = None  #: the unexecuted sub-searches of the last plan (reuse_plans)
     while not world.done:
         if world.num_actions >= max_actions:
             reason = f"action limit {max_actions} reached"
@@ -170,6 +189,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         truth = world.scenario()
         state = state_from_perception(observe(truth))
         feasibility = make_feasibility(feasibility_name, truth, workspace)
+        if vetoes:
+            feasibility = PickVeto(feasibility, vetoes)
         if not state.target:
             action = random_action(feasibility, state, workspace, rng)
             if action is None:
@@ -180,7 +201,10 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
             continue
         if can_exclude:
             config = dc.replace(config, excluded_actions=tuple(excluded))
-        plan = planner(state, feasibility, workspace, config, rng)
+        plan = _reused(pending, state, feasibility, workspace) if pending else None
+        if plan is None:
+            plan = planner(state, feasibility, workspace, config, rng)
+        pending = None
         result.planning_time_s += plan.planning_time_s
         result.planner = result.planner or plan.planner
         if plan.theta_star is not None:
@@ -199,15 +223,24 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         if closed_loop:
             first = plan.actions[0].sub_search
             todo = [a for a in plan.actions if a.sub_search == first]
+            rest = plan.actions[len(todo):]
+            if reuse_plans and plan.success and rest:
+                pending = dc.replace(plan, actions=rest)
         todo = todo[:max_actions - world.num_actions]
         executed, rejected = _execute(world, state, todo, result, action_check, can_exclude)
         result.rounds.append(_round_record(plan, executed, world))
+        if executed < len(todo):
+            pending = None
         if executed:
-            excluded = []
+            excluded, vetoes = [], set()
         if rejected is not None:
-            pick = result.motion_checks[-1]["failure"].startswith("pick")
-            excluded.append(object_key(rejected.object) if pick else action_key(rejected))
-            if len(excluded) > max_rejections:
+            if result.motion_checks[-1]["failure"].startswith("pick"):
+                # the object cannot be taken at that angle: rule the pick out, not the object
+                k = int(np.argmin(np.abs(workspace.approach_angles - rejected.theta_pick)))
+                vetoes.add((rejected.object, k))
+            else:
+                excluded.append(action_key(rejected))
+            if len(excluded) + len(vetoes) > max_rejections:
                 reason = f"no motion-feasible action after {max_rejections} rejections"
                 break
             continue

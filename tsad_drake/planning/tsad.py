@@ -23,6 +23,7 @@ import numpy as np
 
 from tsad_drake.planning.actions import choose_theta_pick, legal_actions, random_action
 from tsad_drake.planning.feasibility import approach_order
+from tsad_drake.planning.plan_check import shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
@@ -62,6 +63,18 @@ class TSADConfig:
     #: closed loop: still plan every sub-search (and execute only the first), so the executed
     #: sub-plan is part of a complete plan; False is the paper's first-sub-search-only planning
     lookahead: bool = True
+    #: closed loop: after a sub-search is executed and the scene observed again, keep the rest of
+    #: the last plan when it is still feasible on the new observation (`plan_check`) instead of
+    #: searching afresh; False re-plans every round as the paper does
+    reuse_plans: bool = True
+    #: drop or merge the actions of a found plan that it does not need (`plan_check.shorten_plan`):
+    #: random rollouts leave detours in the tree; False keeps the plan as the search extracted it
+    shorten: bool = True
+    #: complete plans collected (each from a fresh sequential search) before the shortest is
+    #: returned; 1 returns the first plan found, as the paper does
+    complete_plans: int = 3
+    #: s, search time allowed after the first complete plan for finding shorter ones
+    improve_time_s: float = 2.0
 
 
 class EmptyCells:
@@ -174,11 +187,6 @@ def action_key(action: Action) -> tuple[str, float, float]:
     return (action.object, round(action.x, 4), round(action.y, 4))
 
 
-def object_key(name: str) -> tuple[str, float, float]:
-    """An exclusion of every relocation of object `name` (it cannot be picked)."""
-    return (name, math.nan, math.nan)
-
-
 class SubSearch:
     """One subgoal-conditioned MCTS from `root` toward removing a member of R_{theta*,root}."""
 
@@ -237,9 +245,7 @@ class SubSearch:
         if node.untried is None:
             acts = legal_actions(self.feasibility, node.state, self.workspace, self.theta)
             if node.parent is None and self.excluded:
-                banned = {key[0] for key in self.excluded if math.isnan(key[1])}
-                acts = [a for a in acts
-                        if a.object not in banned and action_key(a) not in self.excluded]
+                acts = [a for a in acts if action_key(a) not in self.excluded]
             acts = [acts[i] for i in self.rng.permutation(len(acts))]
             if self.config.rollout_bias > 0:
                 # untried actions are popped from the end: relevant objects' actions come first
@@ -384,18 +390,35 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         return result(None, [], False, "target cannot be grasped at any approach angle")
     ranked = ranked_angles(state, feasibility, workspace, config.max_removals)
     candidates = [first] + [theta for theta in ranked if theta != first][:config.angle_fallbacks]
-    best = None
-    for _ in range(max(config.restarts, 1)):
+    best = None  #: the failed attempt that got furthest
+    found: list[Plan] = []  #: complete plans, shortened
+    improve_until = deadline
+    for _ in range(max(config.restarts, 1) + config.complete_plans - 1):
         for theta_star in candidates:
             plan = _sequential_sub_search(state, feasibility, workspace, config, rng, theta_star,
-                                          deadline, result)
+                                          improve_until, result)
             if plan.success:
-                return plan
+                if config.shorten:
+                    searched = len(plan.actions)
+                    plan.actions = shorten_plan(state, plan.actions, theta_star, feasibility,
+                                                workspace)
+                    plan.stats["actions_before_shortening"] = searched
+                found.append(plan)
+                if len(found) == 1:
+                    improve_until = min(deadline, time.perf_counter() + config.improve_time_s)
+                break
             if best is None or len(plan.actions) > len(best.actions):
                 best = plan
-            if time.perf_counter() >= deadline:
-                return best
-    return best
+            if time.perf_counter() >= improve_until:
+                break
+        if len(found) >= config.complete_plans or time.perf_counter() >= improve_until:
+            break
+    if not found:
+        return best
+    shortest = min(found, key=lambda p: len(p.actions))  # the first of the shortest
+    shortest.stats["complete_plans"] = [len(p.actions) for p in found]
+    shortest.planning_time_s = time.perf_counter() - start
+    return shortest
 
 
 def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,

@@ -1,0 +1,99 @@
+"""Re-checking and shortening plans on a state, with the feasibility model and the point-cloud simulation.
+
+`replay_plan` re-derives a plan's actions on a state: each object must be pickable (at its recorded
+theta_pick, else the nearest angle where it is), each placement cell valid with a pickable
+theta_place, the target clear and pickable at theta* at the end, and, at the end of each sub-search's
+actions, TSAD's two termination conditions (R shrank, nothing new in it).
+
+The closed loop uses it to keep the rest of the last plan while a new observation still admits it
+(a re-plan would otherwise wander off to a different, often longer plan); `shorten_plan` uses it to
+drop actions a search's random rollouts left in a plan (a detour, an object moved twice) while the
+plan stays valid, like shortcutting a sampled path.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+
+from tsad_drake.planning.actions import choose_theta_pick, place_options
+from tsad_drake.planning.pointcloud_sim import simulate_pick_place
+from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
+
+
+def _angle_index(workspace: Workspace, theta: float) -> int:
+    return int(np.argmin(np.abs(workspace.approach_angles - theta)))
+
+
+def _blocker_names(state: PlanningState, feasibility: FeasibilityModel, k: int) -> frozenset[str]:
+    return frozenset(state.objects[i].name
+                     for i in feasibility.blockers(state, state.target_index)[k])
+
+
+def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
+                feasibility: FeasibilityModel, workspace: Workspace) -> list[Action] | None:
+    """`actions` re-derived on `state` (theta_pick / theta_place may change), or None if invalid."""
+    names = {o.name for o in state.objects}
+    if state.target not in names:
+        return None
+    k = _angle_index(workspace, theta_star)
+    cells = workspace.cell_centres
+    current, out = state, []
+    group_start = _blocker_names(state, feasibility, k)
+    for n, action in enumerate(actions):
+        if action.object not in names or action.object == state.target:
+            return None
+        i = current.index(action.object)
+        theta_pick = choose_theta_pick(feasibility, current, i, workspace, action.theta_pick)
+        if theta_pick is None:
+            return None
+        c = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
+        theta_place = place_options(feasibility, current, i, theta_pick, workspace)[c]
+        if not np.isfinite(theta_place):
+            return None
+        step = dc.replace(action, theta_pick=theta_pick, x=float(cells[c, 0]), y=float(cells[c, 1]),
+                          theta_place=float(theta_place))
+        current = simulate_pick_place(current, step)
+        out.append(step)
+        if n + 1 == len(actions) or actions[n + 1].sub_search != action.sub_search:
+            now = _blocker_names(current, feasibility, k)
+            if not (now < group_start):  # termination conditions: R shrank, nothing new in it
+                return None
+            group_start = now
+    t = current.target_index
+    if feasibility.blockers(current, t)[k] or not feasibility.pickable(current, t)[k]:
+        return None
+    return out
+
+
+def plan_still_valid(state: PlanningState, actions: list[Action], theta_star: float,
+                     feasibility: FeasibilityModel, workspace: Workspace) -> bool:
+    """Whether `actions` from `state` are each feasible and leave the target pickable at theta*."""
+    return replay_plan(state, actions, theta_star, feasibility, workspace) is not None
+
+
+def _candidates(actions: list[Action]):
+    """Shorter variants of a plan: one action dropped, or an object's two moves made one."""
+    for i in range(len(actions)):
+        yield actions[:i] + actions[i + 1:]
+    for i in range(len(actions)):
+        for j in range(i + 1, len(actions)):
+            if actions[j].object == actions[i].object:
+                merged = dc.replace(actions[i], x=actions[j].x, y=actions[j].y)
+                yield actions[:i] + [merged] + actions[i + 1:j] + actions[j + 1:]
+
+
+def shorten_plan(state: PlanningState, actions: list[Action], theta_star: float,
+                 feasibility: FeasibilityModel, workspace: Workspace) -> list[Action]:
+    """Greedily drop or merge actions while the plan stays valid; `actions` if none can go."""
+    current = actions
+    improved = True
+    while improved and current:
+        improved = False
+        for candidate in _candidates(current):
+            replayed = replay_plan(state, candidate, theta_star, feasibility, workspace)
+            if replayed is not None:
+                current, improved = replayed, True
+                break
+    return current
