@@ -21,10 +21,9 @@ from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.feasibility import make_feasibility
 from tsad_drake.planning.pick_veto import PickVeto
-from tsad_drake.planning.plan_check import replay_plan
+from tsad_drake.planning.plan_check import action_key, replay_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.tsad import action_key
 from tsad_drake.planning.types import Action, Plan, PlanningState
 from tsad_drake.scenario import Scenario
 

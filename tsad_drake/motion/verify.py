@@ -48,7 +48,7 @@ READY_TCP_S = (-0.15, 0.0, 0.15)
 class Segment:
     """One checked piece of motion: motion-plant positions (arm joints, then fingers) over time."""
 
-    name: str  #: "<from keyframe>-><to keyframe>" or "close" / "open"
+    name: str  #: "<from keyframe>-><to keyframe>" or "preshape" / "close" / "open"
     times: np.ndarray  #: (N,) s, on the plan's time line
     q: np.ndarray  #: (N, 8) UR5e joints (rad) then finger joints (m)
     held: str | None  #: name of the object in the gripper, if any
@@ -150,7 +150,7 @@ def _sampled(model: MotionModel, name: str, traj, t0: float, held: str | None) -
 
 
 def _gripper_segment(model: MotionModel, name: str, q0: np.ndarray, q1: np.ndarray, t0: float,
-                     held: str) -> Segment:
+                     held: str | None) -> Segment:
     times, qs = linear_segment(q0, q1, model.config.gripper_duration, model.config.sample_step)
     segment = Segment(name, times + t0, qs, held)
     failure = check_segment(model, segment)
@@ -213,7 +213,11 @@ class _ActionPlanner:
         q_released[place.finger_indices] = opening
         q_post = self.keyframe(place, "post_place", targets["post_place"], q_released, opening)
 
-        self.move(pick, "start", "pre_grasp", q_start, q_pre)
+        q_shaped = q_start.copy()  # the fingers pre-shape before the arm moves in
+        q_shaped[pick.finger_indices] = opening
+        if not np.allclose(q_shaped, q_start):
+            self.segments.append(_gripper_segment(pick, "preshape", q_start, q_shaped, 0.0, None))
+        self.move(pick, "start", "pre_grasp", q_shaped, q_pre)
         self.move(pick, "pre_grasp", "grasp", q_pre, q_grasp)
         t0 = self.segments[-1].times[-1]
         self.segments.append(_gripper_segment(carry, "close", q_grasp, q["grasp"], t0, obj.name))
@@ -316,4 +320,4 @@ def is_pick_failure(failure: str) -> bool:
     name = words[1].rstrip(":")
     if words[0] == "keyframe":
         return name in PICK_KEYFRAMES
-    return name == "close" or name.split("->")[-1] in PICK_KEYFRAMES
+    return name in ("preshape", "close") or name.split("->")[-1] in PICK_KEYFRAMES

@@ -22,6 +22,11 @@ from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
 
 
+def action_key(action: Action) -> tuple[str, float, float]:
+    """What identifies a relocation for exclusion: the object and its placement cell."""
+    return (action.object, round(action.x, 4), round(action.y, 4))
+
+
 def _angle_index(workspace: Workspace, theta: float) -> int:
     return int(np.argmin(np.abs(workspace.approach_angles - theta)))
 
@@ -85,13 +90,19 @@ def _candidates(actions: list[Action]):
 
 
 def shorten_plan(state: PlanningState, actions: list[Action], theta_star: float,
-                 feasibility: FeasibilityModel, workspace: Workspace) -> list[Action]:
-    """Greedily drop or merge actions while the plan stays valid; `actions` if none can go."""
+                 feasibility: FeasibilityModel, workspace: Workspace,
+                 excluded: frozenset[tuple[str, float, float]] = frozenset()) -> list[Action]:
+    """Greedily drop or merge actions while the plan stays valid; `actions` if none can go.
+
+    A shortened plan never starts with an `excluded` relocation (see `action_key`).
+    """
     current = actions
     improved = True
     while improved and current:
         improved = False
         for candidate in _candidates(current):
+            if candidate and action_key(candidate[0]) in excluded:
+                continue
             replayed = replay_plan(state, candidate, theta_star, feasibility, workspace)
             if replayed is not None:
                 current, improved = replayed, True

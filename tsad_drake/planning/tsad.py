@@ -23,7 +23,7 @@ import numpy as np
 
 from tsad_drake.planning.actions import choose_theta_pick, legal_actions, random_action
 from tsad_drake.planning.feasibility import approach_order
-from tsad_drake.planning.plan_check import shorten_plan
+from tsad_drake.planning.plan_check import action_key, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
@@ -180,11 +180,6 @@ class Node:
     untried: list[Action] | None = None  #: lazily enumerated, shuffled feasible actions
     has_terminal: bool = False  #: a terminal state lies in this subtree
     rollout_value: float = -math.inf  #: best value a rollout from here reached
-
-
-def action_key(action: Action) -> tuple[str, float, float]:
-    """What identifies a relocation for exclusion: the object and its placement cell."""
-    return (action.object, round(action.x, 4), round(action.y, 4))
 
 
 class SubSearch:
@@ -401,7 +396,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
                 if config.shorten:
                     searched = len(plan.actions)
                     plan.actions = shorten_plan(state, plan.actions, theta_star, feasibility,
-                                                workspace)
+                                                workspace, frozenset(config.excluded_actions))
                     plan.stats["actions_before_shortening"] = searched
                 found.append(plan)
                 if len(found) == 1:
