@@ -65,10 +65,15 @@ def _optimality_lines(columns: dict[str, dict]) -> list[str]:
         return []
     floor = {r["seed"]: r["num_actions"] for r in columns["optimal"]["rows"]
              if r.get("optimal_finished") and r.get("success")}
+    solved = {r["seed"] for r in columns["optimal"]["rows"] if r.get("success")}
     lines = []
     for label, doc in columns.items():
         if label == "optimal":
             continue
+        on_solved = [r["success"] for r in doc["rows"] if r["seed"] in solved]
+        if on_solved:
+            lines.append(f"- {label} success on the {len(on_solved)} scenes `optimal` solved "
+                         f"(known solvable): {sum(on_solved) / len(on_solved):.2f}")
         pairs = [(r["num_actions"], floor[r["seed"]]) for r in doc["rows"]
                  if r.get("success") and r["seed"] in floor]
         if pairs:
