@@ -154,14 +154,18 @@ def test_set_objects_moves_an_object_in_the_image(station, scenario):
     assert np.array_equal(station.render(0.0)[1] == index, before)
 
 
-def test_rendering_is_fast_after_the_first_frame(station):
-    import time
-
-    station.render(0.0)
-    start = time.perf_counter()
-    for theta in station.observation_q:
-        station.render(theta)
-    assert (time.perf_counter() - start) / len(station.observation_q) < 0.25
+def test_every_observation_pose_renders_its_own_view(station):
+    """Each approach angle gives a depth image with the shelf in it, seen from its own camera pose
+    (frame rates are measured by `python -m tsad_drake.bench.station_timing`, not asserted)."""
+    views = {theta: station.render(theta) for theta in station.observation_q}
+    for depth, _, X_SC in views.values():
+        assert np.isfinite(depth).mean() > 0.5 and np.nanmin(depth[np.isfinite(depth)]) > 0.0
+    thetas = sorted(views)
+    for a, b in zip(thetas[:-1], thetas[1:]):
+        depth_a, _, pose_a = views[a]
+        depth_b, _, pose_b = views[b]
+        assert not np.allclose(np.asarray(pose_a), np.asarray(pose_b))
+        assert np.nanmax(np.abs(np.nan_to_num(depth_a - depth_b, posinf=0.0, neginf=0.0))) > 0.01
 
 
 def test_unreachable_viewpoint_raises_a_clear_error(scenario):
