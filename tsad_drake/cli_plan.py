@@ -61,6 +61,10 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
     p.add_argument("--occluded", action="store_true",
                    help="scenes with the target fully hidden (the paper's section VI-D)")
     _add_planner_args(p, default_observer="raycast")
+    p.add_argument("--motion", action="store_true",
+                   help="verify every action at the motion level before executing it (as "
+                        "`tsad plan --motion`); rows and summary report the share of checked "
+                        "actions that were motion-feasible")
     p.add_argument("--workers", type=int, default=1,
                    help="episodes run in this many parallel processes (default 1)")
     p.add_argument("--out", required=True, help="result JSON file")
@@ -142,7 +146,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
                          feasibility=args.feasibility, ablation=args.ablation,
                          observer=args.observer, occluded=args.occluded,
-                         closed_loop=not args.open_loop)
+                         closed_loop=not args.open_loop, motion=args.motion)
              for i in range(args.episodes)]
     document = run_bench(specs, out, workers=args.workers)
     label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"

@@ -108,7 +108,7 @@ def run_named_episode(spec) -> dict:
     scenario = generate_scenario(spec.scenario, spec.seed, occluded=spec.occluded)
     settings = EpisodeSettings(planner=spec.planner, feasibility=spec.feasibility,
                                ablation=spec.ablation, observer=spec.observer,
-                               closed_loop=spec.closed_loop)
+                               closed_loop=spec.closed_loop, motion=spec.motion)
     return run_settings(scenario, spec.seed, settings)
 
 

@@ -54,5 +54,8 @@ def paper_table(columns: dict[str, dict]) -> str:
     row("Avg. of Actions", lambda s: f"{_fmt(s['actions_success'])} / {_fmt(s['actions_all'])}")
     row("Avg. of Falls", lambda s: f"{_fmt(s['falls_success'])} / {_fmt(s['falls_all'])}")
     row("Planning time median [s]", lambda s: _fmt(s["planning_time_median_s"]))
+    if any("mean_motion_feasible_share" in s for s in columns.values()):
+        row("Motion-feasible share of checked actions",
+            lambda s: _fmt(s.get("mean_motion_feasible_share")))
     row("Episodes", lambda s: str(s["episodes"]))
     return "\n".join(lines)

@@ -27,6 +27,8 @@ def _label(spec: dict) -> str:
         label += f" [{spec['feasibility']}]"
     if spec.get("occluded"):
         label += " occluded"
+    if spec.get("motion"):
+        label += " +motion"
     return label
 
 

@@ -23,7 +23,7 @@ from tsad_drake.bench.metrics import summarise
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
-             "closed_loop")
+             "closed_loop", "motion")
 
 
 @dc.dataclass(frozen=True)
@@ -38,6 +38,7 @@ class EpisodeSpec:
     observer: str = "raycast"  #: raycast (NumPy) | drake (VTK station renders)
     occluded: bool = False
     closed_loop: bool = True
+    motion: bool = False  #: verify each action at the motion level before executing it
 
     def key(self) -> tuple:
         return tuple(getattr(self, k) for k in SPEC_KEYS)
@@ -71,13 +72,14 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     if not path.exists():
         return {}
     wanted = specs[0].key()
+    defaults = {f.name: f.default for f in dc.fields(EpisodeSpec)}  # keys added since a row
     done = {}
     for line in path.read_text().splitlines():
         try:
             row = json.loads(line)
         except json.JSONDecodeError:
             continue  # a line cut off by an interruption
-        if tuple(row.get(k) for k in SPEC_KEYS) == wanted:
+        if tuple(row.get(k, defaults.get(k)) for k in SPEC_KEYS) == wanted:
             done[row["seed"]] = row
     return done
 
