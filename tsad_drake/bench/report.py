@@ -63,14 +63,16 @@ def _difficulty_lines(columns: dict[str, dict]) -> list[str]:
 
 def _optimality_lines(columns: dict[str, dict]) -> list[str]:
     """Each planner's actions against `optimal` on the scenes where both succeeded."""
-    if "optimal" not in columns:
+    reference = [label for label, doc in columns.items() if doc["spec"]["planner"] == "optimal"]
+    if not reference:
         return []
-    floor = {r["seed"]: r["num_actions"] for r in columns["optimal"]["rows"]
+    rows = columns[reference[0]]["rows"]
+    floor = {r["seed"]: r["num_actions"] for r in rows
              if r.get("optimal_finished") and r.get("success")}
-    solved = {r["seed"] for r in columns["optimal"]["rows"] if r.get("success")}
+    solved = {r["seed"] for r in rows if r.get("success")}
     lines = []
     for label, doc in columns.items():
-        if label == "optimal":
+        if label in reference or doc["spec"].get("occluded"):
             continue
         on_solved = [r["success"] for r in doc["rows"] if r["seed"] in solved]
         if on_solved:
