@@ -158,7 +158,7 @@ def test_every_observation_pose_renders_its_own_view(station):
     """Each approach angle gives a depth image with the shelf in it, seen from its own camera pose
     (frame rates are measured by `python -m tsad_drake.bench.station_timing`, not asserted)."""
     views = {theta: station.render(theta) for theta in station.observation_q}
-    for depth, _, X_SC in views.values():
+    for depth, _, _ in views.values():
         assert np.isfinite(depth).mean() > 0.5 and np.nanmin(depth[np.isfinite(depth)]) > 0.0
     thetas = sorted(views)
     for a, b in zip(thetas[:-1], thetas[1:]):

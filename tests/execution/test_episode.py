@@ -42,12 +42,22 @@ def test_bad_names_and_limits():
                     lambda s: observe_raycast(s).scene, make_config("tsad"), seed=0, max_actions=0)
 
 
-def test_rejected_actions_are_excluded_and_tsad_plans_again():
+def _observe(truth):
+    return observe_raycast(truth).scene
+
+
+@pytest.fixture(scope="module")
+def baseline():
+    """Scene 1/1 and its oracle TSAD episode with no motion check (what the checks below refuse)."""
     scenario = generate_scenario("1", 1)
-    observe = lambda s: observe_raycast(s).scene  # noqa: E731
-    baseline = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
-                           seed=1, planner_name="tsad")
-    first = baseline.actions[0]
+    return scenario, run_episode(scenario, get_planner("tsad"), "oracle", _observe,
+                                 make_config("tsad"), seed=1, planner_name="tsad")
+
+
+def test_rejected_actions_are_excluded_and_tsad_plans_again(baseline):
+    scenario, unchecked = baseline
+    observe = _observe
+    first = unchecked.actions[0]
     rejected_key = (first["true_object"], first["place_xy"][0], first["place_xy"][1])
     checked = []
 
@@ -77,12 +87,10 @@ def test_always_rejecting_check_ends_the_episode_as_a_failure():
     assert len(result.motion_checks) == 4
 
 
-def test_a_pick_rejected_at_one_angle_is_retried_at_another():
-    scenario = generate_scenario("1", 1)
-    observe = lambda s: observe_raycast(s).scene  # noqa: E731
-    baseline = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
-                           seed=1, planner_name="tsad")
-    first = baseline.actions[0]
+def test_a_pick_rejected_at_one_angle_is_retried_at_another(baseline):
+    scenario, unchecked = baseline
+    observe = _observe
+    first = unchecked.actions[0]
     vetoed = (first["true_object"], round(first["theta_pick_deg"]))
 
     def check(truth, action):  # stands in for motion planning: one object not at one angle
