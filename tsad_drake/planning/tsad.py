@@ -10,6 +10,10 @@ a random-policy rollout to d_max with feasibility checks, backpropagation of
 V(s) = max[R(s), max_child V(s') - alpha] with R(s) = r_t + w_o r_o + w_e r_e, and extraction of
 the plan along the highest-value children. theta_pick and theta_place come from the feasibility
 model (`actions.py`); next states from the point-cloud simulation.
+
+Beyond the paper (each a `TSADConfig` field; see its comments): a complete plan is shortened by
+dropping or merging actions while `plan_check.replay_plan` still accepts it, and the shortest of
+`complete_plans` complete plans (found within `improve_time_s` of the first) is returned.
 """
 
 from __future__ import annotations
