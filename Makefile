@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow bench report lint clean
+.PHONY: all setup system-deps demo test test-slow bench bench-extra report lint clean
 
 all: test
 
@@ -64,6 +64,17 @@ bench: setup
 	for s in 1 2; do \
 	  $(TSAD) bench --scenario $$s --planner tsad --occluded --feasibility $(BENCH_FEASIBILITY) \
 	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s$$s-tsad-occluded.json || exit 1; done
+	$(MAKE) report
+
+# Extras on scenario 1 (10 episodes each): TSAD on the prehensile network, and every planner with
+# each action verified at the motion level (`--motion`: the motion-feasible share per planner).
+bench-extra: setup
+	mkdir -p $(BENCH_DIR)
+	$(TSAD) bench --scenario 1 --planner tsad --feasibility net --episodes 10 \
+	  --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s1-tsad-net.json
+	for p in tsad gp3 rots rots-star; do \
+	  $(TSAD) bench --scenario 1 --planner $$p --feasibility geometric --motion --episodes 10 \
+	    --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s1-$$p-motion.json || exit 1; done
 	$(MAKE) report
 
 report: setup
