@@ -23,7 +23,7 @@ import numpy as np
 from tsad_drake.execution.episode import run_episode
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.perception.types import PerceivedScene
-from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.planning.feasibility import angle_index, make_feasibility
 from tsad_drake.planning.gp3 import GP3Config, gp3_optimal_angle, plan_gp3
 from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.state import empty_cell_count, make_workspace, state_from_perception
@@ -45,7 +45,7 @@ def measure_scene(scenario: Scenario, optimal: OptimalConfig, gp3: GP3Config,
     theta, order = gp3_optimal_angle(state, feasibility, workspace, gp3, rng)
     size_r = None
     if theta is not None:
-        k = int(np.argmin(np.abs(workspace.approach_angles - theta)))
+        k = angle_index(workspace.approach_angles, theta)
         size_r = len(feasibility.blockers(state, state.target_index)[k])
     best = plan_optimal(state, feasibility, workspace, optimal)
     episode = run_episode(scenario, plan_gp3, feasibility_name, _observe, gp3, scenario.seed,

@@ -19,7 +19,7 @@ import numpy as np
 from tsad_drake.execution.world import WorldModel
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.actions import random_action
-from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.planning.feasibility import angle_index, make_feasibility
 from tsad_drake.planning.pick_veto import PickVeto
 from tsad_drake.planning.plan_check import action_key, replay_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
@@ -235,7 +235,7 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         if rejected is not None:
             if result.motion_checks[-1]["failure"].startswith("pick"):
                 # the object cannot be taken at that angle: rule the pick out, not the object
-                k = int(np.argmin(np.abs(workspace.approach_angles - rejected.theta_pick)))
+                k = angle_index(workspace.approach_angles, rejected.theta_pick)
                 vetoes.add((rejected.object, k))
             else:
                 excluded.append(action_key(rejected))

@@ -99,6 +99,11 @@ def corridor_hits(centres: np.ndarray, thetas: np.ndarray, corridors: np.ndarray
     return hits
 
 
+def angle_index(thetas: np.ndarray, theta: float) -> int:
+    """Index of the approach angle in `thetas` nearest `theta`."""
+    return int(np.argmin(np.abs(thetas - theta)))
+
+
 def approach_order(thetas: np.ndarray, prefer: float) -> np.ndarray:
     """Indices of `thetas` sorted by distance to `prefer`, ties to the smaller |theta|."""
     return np.lexsort((np.abs(thetas), np.round(np.abs(thetas - prefer), 9)))

@@ -24,6 +24,7 @@ from tsad_drake.planning.baseline_common import (
     reachable_angles,
     target_clear,
 )
+from tsad_drake.planning.feasibility import angle_index
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
 
@@ -199,7 +200,7 @@ def _place_order(state: PlanningState, order: tuple[str, ...], theta_star: float
     """Move each object of `order` to the cell leaving the most empty cells; reason on failure."""
     actions: list[Action] = []
     empty = CellScorer(workspace)
-    k_star = int(np.argmin(np.abs(workspace.approach_angles - theta_star)))
+    k_star = angle_index(workspace.approach_angles, theta_star)
     for name in order:
         i = state.index(name)
         theta_pick = choose_theta_pick(feasibility, state, i, workspace)
@@ -241,7 +242,7 @@ def plan_gp3(state: PlanningState, feasibility: FeasibilityModel, workspace: Wor
     if reason:
         return Plan("gp3", None, actions, False, reason, budget.elapsed, stats)
     clear = target_clear(feasibility, final)
-    k_star = int(np.argmin(np.abs(workspace.approach_angles - theta_star)))
+    k_star = angle_index(workspace.approach_angles, theta_star)
     theta = theta_star if clear[k_star] else preferred_angle(workspace, clear, theta_star)
     if theta is None:
         return Plan("gp3", None, actions, False, "the placements block the target",

@@ -26,6 +26,7 @@ import torch
 
 from tsad_drake.perception import prehensile_data as pdata
 from tsad_drake.perception.prehensile_net import query_scores
+from tsad_drake.planning.feasibility import angle_index
 from tsad_drake.planning.types import Action, PlanningState, Workspace
 
 #: states kept in the cache before it is cleared
@@ -147,7 +148,7 @@ class NetFeasibility:
             x, y = self.workspace.cell_centres[c]
             nxt = simulate_pick_place(state, Action(name, float(theta_pick), float(x), float(y),
                                                     float(proposal[c])))
-            k = int(np.argmin(np.abs(thetas - proposal[c])))
+            k = angle_index(thetas, proposal[c])
             requests.append((nxt, index, k))
         self.evaluate(requests)
         result = np.full(len(self.workspace.cell_centres), np.nan)

@@ -18,6 +18,7 @@ import dataclasses as dc
 import numpy as np
 
 from tsad_drake.planning.actions import choose_theta_pick, place_options
+from tsad_drake.planning.feasibility import angle_index
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
 
@@ -27,11 +28,8 @@ def action_key(action: Action) -> tuple[str, float, float]:
     return (action.object, round(action.x, 4), round(action.y, 4))
 
 
-def _angle_index(workspace: Workspace, theta: float) -> int:
-    return int(np.argmin(np.abs(workspace.approach_angles - theta)))
-
-
-def _blocker_names(state: PlanningState, feasibility: FeasibilityModel, k: int) -> frozenset[str]:
+def rearrangement_set(state: PlanningState, feasibility: FeasibilityModel, k: int) -> frozenset[str]:
+    """Names in R_{theta_k,s}, the target's blockers at angle k (names compare across states)."""
     return frozenset(state.objects[i].name
                      for i in feasibility.blockers(state, state.target_index)[k])
 
@@ -42,10 +40,10 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
     names = {o.name for o in state.objects}
     if state.target not in names:
         return None
-    k = _angle_index(workspace, theta_star)
+    k = angle_index(workspace.approach_angles, theta_star)
     cells = workspace.cell_centres
     current, out = state, []
-    group_start = _blocker_names(state, feasibility, k)
+    group_start = rearrangement_set(state, feasibility, k)
     for n, action in enumerate(actions):
         if action.object not in names or action.object == state.target:
             return None
@@ -62,7 +60,7 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
         current = simulate_pick_place(current, step)
         out.append(step)
         if n + 1 == len(actions) or actions[n + 1].sub_search != action.sub_search:
-            now = _blocker_names(current, feasibility, k)
+            now = rearrangement_set(current, feasibility, k)
             if not (now < group_start):  # termination conditions: R shrank, nothing new in it
                 return None
             group_start = now

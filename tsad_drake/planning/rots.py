@@ -25,7 +25,7 @@ import numpy as np
 from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap, side_wall_polygons
 from tsad_drake.planning.actions import choose_theta_pick, place_options
 from tsad_drake.planning.baseline_common import Budget, preferred_angle, target_clear
-from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE
+from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, angle_index
 from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP, simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
@@ -190,7 +190,7 @@ class _ROTSSearch:
                     continue
                 first |= b
                 if not b and self.star:  # the cylinders say free, the model does not
-                    k = int(np.argmin(np.abs(self.workspace.approach_angles - theta)))
+                    k = angle_index(self.workspace.approach_angles, theta)
                     first |= self.feasibility.blockers(state, t)[k]
             order = sorted(first - {t})
             for i in list(order):

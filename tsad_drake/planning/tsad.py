@@ -26,8 +26,8 @@ from collections.abc import Callable
 import numpy as np
 
 from tsad_drake.planning.actions import choose_theta_pick, legal_actions, random_action
-from tsad_drake.planning.feasibility import approach_order
-from tsad_drake.planning.plan_check import action_key, shorten_plan
+from tsad_drake.planning.feasibility import angle_index
+from tsad_drake.planning.plan_check import action_key, rearrangement_set, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
@@ -207,8 +207,7 @@ class SubSearch:
 
     def rearrangement_set(self, state: PlanningState) -> frozenset[str]:
         """Names in R_{theta*,s} (names, so sets compare across states)."""
-        t = state.target_index
-        return frozenset(state.objects[i].name for i in self.feasibility.blockers(state, t)[self.k])
+        return rearrangement_set(state, self.feasibility, self.k)
 
     def reward(self, state: PlanningState) -> tuple[float, bool]:
         """R(s) = r_t + w_o r_o + w_e r_e and whether s is terminal."""
@@ -426,7 +425,7 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
                            result: Callable[..., Plan]) -> Plan:
     """Stage 2 of TSAD for one retrieval angle: sub-MCTS after sub-MCTS until R is empty."""
     t = state.target_index
-    k = int(approach_order(workspace.approach_angles, theta_star)[0])
+    k = angle_index(workspace.approach_angles, theta_star)
     empty_cells = EmptyCells(workspace)
     initial_empty = empty_cells(state)
     actions: list[Action] = []
