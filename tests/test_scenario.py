@@ -10,6 +10,7 @@ from tsad_drake.scenario import ScenarioError, load_scenario, save_scenario, val
 from tsad_drake.scenario_generator import (
     BUILTIN_SCENARIOS,
     generate_scenario,
+    removal_solvable,
     scenario_defaults,
     target_blockers,
 )
@@ -72,11 +73,14 @@ def test_same_seed_same_scene_and_different_seeds_differ():
     assert a != c
 
 
-def test_occluded_target_is_hidden_in_every_view():
-    scenario = generate_scenario("1", 0, occluded=True)
+@pytest.mark.parametrize("name", ["1", "2"])
+def test_occluded_target_is_hidden_in_every_view_and_still_solvable(name):
+    scenario = generate_scenario(name, 0, occluded=True)
     assert scenario.occluded
     for theta in scenario.approach_angles:
         assert target_visibility(scenario, CameraConfig(), theta) == 0.0
+    # removing objects can free it, so random relocations that reveal it lead somewhere
+    assert removal_solvable(scenario)
 
 
 def test_yaml_round_trip(tmp_path):

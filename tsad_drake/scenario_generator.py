@@ -21,10 +21,10 @@ paper (`free_cells`: cells a relocated object can be put in and reached, within
 `GeneratorConfig.free_cells`) and when removing pickable objects can free the target at all
 (`removal_solvable`, true shapes). `python -m tsad_drake.bench.difficulty` measures the result.
 
-The occluded variant puts a short target deep behind a screen of tall blockers packed around its
-front (`screen_angles_deg`) and keeps the layout when the target is hidden in every view; it is fast
-(< 1 s) but not required to be removal-solvable: with the 11 cm gripper corridor a screen that hides
-the target in all seven views also boxes it in, so most occluded scenes cannot be solved.
+The occluded variant puts a short target deep in the shelf and a front row of tall pickable
+objects (`occluded_front`, `occluded_front_height`) between it and the opening, and keeps the layout when
+the target is hidden in every view and the scene is still removal-solvable: random relocations of
+the front row reveal the target, then the planner takes over (section VI-D).
 """
 
 from __future__ import annotations
@@ -74,20 +74,18 @@ class GeneratorConfig:
     #: allowed number of free, reachable grid cells (`free_cells`): free space must be scarce
     free_cells: tuple[int, int] = (2, 4)
     free_cell_probe_radius: float = 0.03  #: m, radius of the object a free cell must hold
-    #: free cells allowed in the occluded variant (its screen keeps the front open; the random
+    #: free cells allowed in the occluded variant (the random
     #: relocations that reveal the target need somewhere to go)
     occluded_free_cells: tuple[int, int] = (2, 24)
-    #: occluded variant: the target sits this deep (fraction of depth) behind a screen of blockers
-    occluded_depth_fraction: float = 0.8
+    #: occluded variant: the target sits this deep (fraction of depth) behind the front row
+    occluded_depth_fraction: float = 0.75
     occluded_target_height: tuple[float, float] = (0.12, 0.15)  #: m, target height range
-    screen_height: tuple[float, float] = (0.185, 0.20)  #: m, height range of the screen blockers
-    #: deg, directions (from the target, 0 = towards the front opening, + to the left) of the
-    #: screen blockers; each is pushed out from the target until it fits, +- screen_jitter_deg
-    screen_angles_deg: tuple[float, ...] = (30.0, -30.0, 0.0, 55.0, -55.0)
-    screen_jitter_deg: float = 6.0  #: deg, uniform jitter of each screen direction
-    screen_min_radius: float = 0.04  #: m, screen centres start this far from the target's centre
-    screen_tries: int = 8  #: screen layouts tried per target placement
-
+    #: occluded variant: range of tall objects dropped in front of the target (they hide it)
+    occluded_front: tuple[int, int] = (5, 6)
+    occluded_front_half_width: float = 0.12  #: m, the front row lies within target y +- this
+    occluded_front_height: tuple[float, float] = (0.185, 0.20)  #: m, height range of the front row
+    #: whole-scene attempts for the occluded variant (hidden and solvable is the rarer draw)
+    occluded_max_attempts: int = 2000
 
 def scenario_defaults(name: str) -> tuple[ShelfConfig, GeneratorConfig]:
     """Shelf and generator settings of a built-in scenario."""
@@ -285,30 +283,6 @@ def removal_solvable(scenario: Scenario) -> bool:
         present &= ~movable
 
 
-def _place_screen(target: ObjectConfig, screen: list[ObjectConfig], placed: list[ObjectConfig],
-                  base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
-                  rng: np.random.Generator) -> bool:
-    """Pack `screen` around the target's front so that it is hidden in every view; append them."""
-    for obj in screen:
-        obj.size[-1] = float(rng.uniform(*cfg.screen_height))
-    for _ in range(cfg.screen_tries):
-        layout, outlines = list(placed), [_outline(o) for o in placed]
-        for obj, angle in zip(screen, cfg.screen_angles_deg, strict=True):
-            phi = np.radians(angle + rng.uniform(-cfg.screen_jitter_deg, cfg.screen_jitter_deg))
-            direction = np.array([-np.cos(phi), np.sin(phi)])
-            for radius in np.arange(cfg.screen_min_radius, 0.17, 0.004):
-                obj.x, obj.y = (float(v) for v in np.array([target.x, target.y]) + radius * direction)
-                if _fits(obj, outlines, base.shelf, cfg, base.min_gap):
-                    layout.append(obj)
-                    outlines.append(_outline(obj))
-                    break
-        if len(layout) == len(placed) + len(screen) and _target_hidden(
-                dc.replace(base, objects=layout, target=target.name), camera):
-            placed[:] = layout
-            return True
-    return False
-
-
 def _target_hidden(scenario: Scenario, camera: CameraConfig) -> bool:
     """True when no pixel of the target shows in any view (front view and extremes first)."""
     index = scenario.target_index()
@@ -329,13 +303,13 @@ def generate_scenario(name: str, seed: int, occluded: bool = False,
     camera = camera or CameraConfig()
     rng = np.random.default_rng([seed, BUILTIN_SCENARIOS.index(name), int(occluded)])
     base = Scenario(name=name, seed=seed, shelf=shelf, occluded=occluded)
-    for _ in range(cfg.max_attempts):
+    attempts = cfg.occluded_max_attempts if occluded else cfg.max_attempts
+    for _ in range(attempts):
         scenario = _attempt(base, cfg, camera, rng, occluded)
         if scenario is not None:
             validate(scenario)
             return scenario
-    raise ScenarioError(f"could not generate scenario {name} seed {seed} "
-                        f"in {cfg.max_attempts} attempts")
+    raise ScenarioError(f"could not generate scenario {name} seed {seed} in {attempts} attempts")
 
 
 def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
@@ -344,7 +318,7 @@ def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
     half_w = shelf.width / 2
     target = _sample_object("cylinder" if rng.random() < 0.5 else "square_pillar", "target", rng)
     depth_fraction = cfg.target_depth_fraction
-    if occluded:  # short and deep, so a screen of tall blockers right in front hides it
+    if occluded:  # short and deep, so a front row of tall objects hides it
         target.size[-1] = float(rng.uniform(*cfg.occluded_target_height))
         depth_fraction = max(depth_fraction, cfg.occluded_depth_fraction)
     placed: list[ObjectConfig] = []
@@ -355,17 +329,15 @@ def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
     others = [_sample_object(_sample_kind(base.name, i, rng), f"obj{i}", rng)
               for i in range(cfg.num_objects - 1)]
     rng.shuffle(others)
-    num_blockers = int(rng.integers(cfg.num_blockers[0], cfg.num_blockers[1] + 1))
-    if occluded:  # a screen of tall blockers packed around the target's front hides it
-        num_blockers = len(cfg.screen_angles_deg)
-        if not _place_screen(target, others[:num_blockers], placed, base, cfg, camera, rng):
-            return None
+    low, high = cfg.occluded_front if occluded else cfg.num_blockers
+    num_blockers = int(rng.integers(low, high + 1))
+    front_half_width = cfg.occluded_front_half_width if occluded else 0.09
     for k, obj in enumerate(others):
-        if occluded and k < num_blockers:
-            continue
         if k < num_blockers:  # in front of the target, within an approach corridor
+            if occluded:
+                obj.size[-1] = float(rng.uniform(*cfg.occluded_front_height))
             x_range = (0.0, max(target.x - 0.05, 0.02))
-            y_range = (target.y - 0.09, target.y + 0.09)
+            y_range = (target.y - front_half_width, target.y + front_half_width)
         else:
             if not _place_packed(obj, placed, shelf, cfg, base.min_gap, rng, cfg.packing):
                 return None
@@ -378,12 +350,10 @@ def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
         return None
     low, high = cfg.occluded_free_cells if occluded else cfg.free_cells
     free = free_cells(scenario, cfg.free_cell_probe_radius)
-    # the occluded variant's screen boxes the target in: it is not required to be solvable by
-    # removals (random relocations reveal the target first; see the module docstring)
-    if not low <= free <= high or (not occluded and not removal_solvable(scenario)):
+    if not low <= free <= high or not removal_solvable(scenario):
         return None
-    if occluded:  # hidden by the screen alone already; more objects only hide more
-        return scenario
+    if occluded:
+        return scenario if _target_hidden(scenario, camera) else None
     visible = target_visibility(scenario, camera, 0.0)
     if not cfg.min_visible <= visible <= cfg.max_visible:
         return None
