@@ -157,6 +157,16 @@ def validate(scenario: Scenario) -> None:
                     f"objects {names[i]} and {names[j]} overlap")
 
 
+def scene_digest(scenario: Scenario) -> str:
+    """Short fingerprint of a scene (every field): bench rows record it so a resumed run never
+    mixes in rows from scenes an older generator made for the same seed."""
+    import hashlib
+    import json
+
+    text = json.dumps(dc.asdict(scenario), sort_keys=True, default=float)
+    return hashlib.sha1(text.encode()).hexdigest()[:12]
+
+
 def save_scenario(scenario: Scenario, path: str | Path) -> None:
     """Write the scenario as YAML readable by `load_scenario` (and Drake's yaml_load_typed)."""
     from pydrake.common.yaml import yaml_dump_typed

@@ -103,13 +103,22 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
 
 def run_named_episode(spec) -> dict:
     """Bench entry point: an `EpisodeSpec` (built-in scenario name + seed) -> JSON row."""
-    from tsad_drake.scenario_generator import generate_scenario
+    from tsad_drake.scenario import scene_digest
 
-    scenario = generate_scenario(spec.scenario, spec.seed, occluded=spec.occluded)
+    scenario = spec_scenario(spec)
     settings = EpisodeSettings(planner=spec.planner, feasibility=spec.feasibility,
                                ablation=spec.ablation, observer=spec.observer,
                                closed_loop=spec.closed_loop, motion=spec.motion)
-    return run_settings(scenario, spec.seed, settings)
+    row = run_settings(scenario, spec.seed, settings)
+    row["scene_digest"] = scene_digest(scenario)
+    return row
+
+
+def spec_scenario(spec) -> Scenario:
+    """The scene an `EpisodeSpec` names (generated from its scenario name and seed)."""
+    from tsad_drake.scenario_generator import generate_scenario
+
+    return generate_scenario(spec.scenario, spec.seed, occluded=spec.occluded)
 
 
 def run_episode_for_cli(scenario: Scenario, seed: int, settings: EpisodeSettings,

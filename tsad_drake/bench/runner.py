@@ -69,8 +69,14 @@ def machine_info() -> dict:
 
 
 def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
+    """Rows of `path` that belong to this run: same settings and, where a row records its scene's
+    digest, the same scene (a row from before a generator change is run again)."""
     if not path.exists():
         return {}
+    from tsad_drake.bench.episodes import spec_scenario
+    from tsad_drake.scenario import scene_digest
+
+    by_seed = {s.seed: s for s in specs}
     wanted = specs[0].key()
     defaults = {f.name: f.default for f in dc.fields(EpisodeSpec)}  # keys added since a row
     done = {}
@@ -79,7 +85,11 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
             row = json.loads(line)
         except json.JSONDecodeError:
             continue  # a line cut off by an interruption
-        if tuple(row.get(k, defaults.get(k)) for k in SPEC_KEYS) == wanted:
+        if (tuple(row.get(k, defaults.get(k)) for k in SPEC_KEYS) != wanted
+                or row.get("seed") not in by_seed):
+            continue
+        digest = row.get("scene_digest")
+        if digest is None or digest == scene_digest(spec_scenario(by_seed[row["seed"]])):
             done[row["seed"]] = row
     return done
 
