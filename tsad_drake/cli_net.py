@@ -1,6 +1,7 @@
-"""`tsad dataset`, `tsad train` and `tsad net-eval`: the prehensile network's half of the CLI.
+"""`tsad dataset`, `tsad train`, `tsad net-calibrate` and `tsad net-eval`: the prehensile
+network's half of the CLI.
 
-Wire-up: `add_net_parsers(sub)` adds the three subparsers; `NET_COMMANDS` maps each command name to
+Wire-up: `add_net_parsers(sub)` adds the four subparsers; `NET_COMMANDS` maps each command name to
 its function (args -> exit status). Bad input raises `tsad_drake.cli.UsageError` (exit 2).
 """
 
@@ -54,6 +55,16 @@ def add_net_parsers(sub) -> None:
                    help="wall-clock limit in minutes (default 30)")
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
 
+    p = sub.add_parser("net-calibrate", help="re-tune a weights file's decision thresholds",
+                       description=(
+                           "Choose the network's decision thresholds on fresh scenes (seeds from "
+                           "200000, never used for training or net-eval): reach and collision for "
+                           "the best pickable accuracy, then the set threshold for the most exact "
+                           "blocker sets R_{theta,s}; written into the weights file's meta. "
+                           "`tsad train` ends with the same step."))
+    p.add_argument("--weights", required=True, help="weights file to update in place (.pt)")
+    p.add_argument("--scenes", type=int, default=16, help="calibration scenes (default 16)")
+
     p = sub.add_parser("net-eval", help="score the network against the oracle on fresh scenes",
                        description=(
                            "Generate fresh scenes (seeds never used for training), observe them, "
@@ -103,6 +114,15 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_net_calibrate(args: argparse.Namespace) -> int:
+    from tsad_drake.perception.prehensile_train import calibrate_thresholds, load_checkpoint
+
+    _positive("--scenes", args.scenes)
+    load_checkpoint(args.weights)  # one clear line on a missing or bad file
+    print(json.dumps(calibrate_thresholds(Path(args.weights), args.scenes)))
+    return 0
+
+
 def cmd_net_eval(args: argparse.Namespace) -> int:
     from tsad_drake.perception.prehensile_train import evaluate_scenes, format_table, load_checkpoint
     from tsad_drake.planning.net_feasibility import NetFeasibility
@@ -130,4 +150,5 @@ def cmd_net_eval(args: argparse.Namespace) -> int:
     return 0
 
 
-NET_COMMANDS = {"dataset": cmd_dataset, "train": cmd_train, "net-eval": cmd_net_eval}
+NET_COMMANDS = {"dataset": cmd_dataset, "train": cmd_train, "net-calibrate": cmd_net_calibrate,
+                "net-eval": cmd_net_eval}

@@ -313,11 +313,13 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
                          progress: bool = True) -> dict:
     """Pick the reach logit and block probability thresholds that maximise pickable accuracy on
     fresh scenes (every (object, angle): the planners' distribution, not the balanced training
-    one) and store them in the checkpoint's meta."""
+    one), then the set threshold that makes R_{theta,s} exact most often
+    (`net_feasibility.blocker_set`), and store them in the checkpoint's meta."""
     from tqdm import tqdm
 
     net, meta = load_checkpoint(weights)
     reach_logits, block_probs, true_pick = [], [], []
+    pair_probs, true_sets = [], []  # per query: block probabilities and the oracle's R
     for seed in tqdm(range(seed_start, seed_start + scenes), desc="calibration scenes",
                      disable=not progress):
         for _, state, oracle in pdata.scene_states(seed):
@@ -332,6 +334,8 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
             reach_logits.append(reach.numpy())
             block_probs.append(prob.max(axis=1))  # the most likely blocker decides
             true_pick.append(np.array([labels.pickable[p] for p in pairs]))
+            pair_probs += [(prob[r], i) for r, (i, _) in enumerate(pairs)]
+            true_sets += [labels.blockers[i][k] for i, k in pairs]
     reach_logits, block_probs = np.concatenate(reach_logits), np.concatenate(block_probs)
     true_pick = np.concatenate(true_pick)
     best = (-1.0, 0.0, 0.5)
@@ -341,9 +345,23 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
             if acc > best[0] + 1e-9:
                 best = (acc, float(rt), float(bt))
     default = float((((reach_logits > 0) & (block_probs <= 0.5)) == true_pick).mean())
-    meta.update(reach_threshold=best[1], block_threshold=best[2],
+    # the set threshold: the most exact R_{theta,s} given the collision threshold just chosen
+    from tsad_drake.planning.net_feasibility import blocker_set
+
+    best_set = (-1.0, best[2])
+    for st in np.linspace(best[2], 0.95, 15):
+        exact = float(np.mean([blocker_set(p, i, best[2], st) == truth
+                               for (p, i), truth in zip(pair_probs, true_sets)]))
+        if exact > best_set[0] + 1e-9:
+            best_set = (exact, float(st))
+    exact_single = float(np.mean([blocker_set(p, i, best[2], best[2]) == truth
+                                  for (p, i), truth in zip(pair_probs, true_sets)]))
+    meta.update(reach_threshold=best[1], block_threshold=best[2], set_threshold=best_set[1],
                 calibration={"seeds": [seed_start, seed_start + scenes - 1],
                              "queries": int(len(true_pick)), "accuracy": round(best[0], 4),
-                             "accuracy_default_thresholds": round(default, 4)})
+                             "accuracy_default_thresholds": round(default, 4),
+                             "blockers_exact": round(best_set[0], 4),
+                             "blockers_exact_one_threshold": round(exact_single, 4)})
     save_checkpoint(net, Path(weights), meta)
-    return meta["calibration"] | {"reach_threshold": best[1], "block_threshold": best[2]}
+    return meta["calibration"] | {"reach_threshold": best[1], "block_threshold": best[2],
+                                  "set_threshold": best_set[1]}

@@ -33,6 +33,21 @@ from tsad_drake.planning.types import Action, PlanningState, Workspace
 CACHE_LIMIT = 50_000
 
 
+def blocker_set(prob: np.ndarray, index: int, block_threshold: float,
+                set_threshold: float) -> frozenset[int]:
+    """Objects in the corridor from per-object block probabilities `prob` (queried object
+    `index` excluded): the approach collides when the largest probability exceeds
+    `block_threshold` (tuned for pickability), and R holds every object above `set_threshold`
+    (tuned for exact sets), plus the most likely one when the approach collides, so that
+    "pickable" and "R empty" never disagree."""
+    p = np.array(prob, dtype=float)
+    p[index] = -1.0
+    members = set(np.nonzero(p > set_threshold)[0].tolist())
+    if len(p) and p.max() > block_threshold:
+        members.add(int(p.argmax()))
+    return frozenset(members)
+
+
 class NetFeasibility:
     """FeasibilityModel backed by the prehensile network (weights: the shipped file by default)."""
 
@@ -51,6 +66,7 @@ class NetFeasibility:
         #: decision thresholds calibrated by `tsad train` on fresh scenes (defaults: logit 0, p 0.5)
         self.reach_threshold = float(self.meta.get("reach_threshold", 0.0))
         self.block_threshold = float(self.meta.get("block_threshold", 0.5))
+        self.set_threshold = float(self.meta.get("set_threshold", self.block_threshold))
         if threads is not None:
             torch.set_num_threads(threads)
         gap = DEFAULT_PLACEMENT_GAP if placement_gap is None else placement_gap
@@ -96,8 +112,8 @@ class NetFeasibility:
             reach, prob = query_scores(self.net, xy, feats, ids, [i for _, i, _ in chunk], num)
             prob = prob.numpy()
             for row, (s, i, k) in enumerate(chunk):
-                blockers = frozenset(np.nonzero(
-                    prob[row, :len(s.objects)] > self.block_threshold)[0].tolist()) - {i}
+                blockers = blocker_set(prob[row, :len(s.objects)], i, self.block_threshold,
+                                       self.set_threshold)
                 self._answers.setdefault(s.key(), {})[(i, k)] = (
                     bool(reach[row] > self.reach_threshold), blockers)
         self.evaluations += len(todo)
