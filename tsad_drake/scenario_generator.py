@@ -81,7 +81,7 @@ class GeneratorConfig:
     occluded_depth_fraction: float = 0.75
     occluded_target_height: tuple[float, float] = (0.12, 0.15)  #: m, target height range
     #: occluded variant: range of tall objects dropped in front of the target (they hide it)
-    occluded_front: tuple[int, int] = (5, 6)
+    occluded_front: tuple[int, int] = (4, 5)
     occluded_front_half_width: float = 0.12  #: m, the front row lies within target y +- this
     occluded_front_height: tuple[float, float] = (0.185, 0.20)  #: m, height range of the front row
     #: whole-scene attempts for the occluded variant (hidden and solvable is the rarer draw)
