@@ -1,7 +1,11 @@
 """ROTS (the paper's ref [13], prehensile actions only) and ROTS*.
 
-ROTS sees every object as an upright cylinder (centre = the estimated centre, radius = the largest
-distance of its completed points from it) and assumes every cylinder can be grasped from any side.
+ROTS sees every object as an upright cylinder (centre = the estimated centre, radius = that of the
+disc with the area of its perceived footprint, the hull of its completed points) and assumes every
+cylinder can be grasped from any side. For a round object that is the object; a long or square one
+sticks out of its cylinder, which is how ROTS knocks objects over in scenarios 2 and 3 (the paper's
+high fall counts). A bounding disc instead makes a 12 cm rectangle a 13 cm cylinder that fits
+nowhere, and ROTS then never plans at all.
 A modified VFH+ polar histogram around an object, built from the front opening, marks approach
 directions whose gripper corridor meets a cylinder (obstacles enlarged by their radius); free
 valleys give the candidate directions among Theta. An A* search over relocations (cost = actions,
@@ -26,8 +30,11 @@ from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap, si
 from tsad_drake.planning.actions import choose_theta_pick, place_options
 from tsad_drake.planning.baseline_common import Budget, preferred_angle, target_clear
 from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, angle_index
-from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP, simulate_pick_place
-from tsad_drake.planning.state import completed_footprint_points
+from tsad_drake.planning.pointcloud_sim import (
+    DEFAULT_PLACEMENT_GAP,
+    footprint_hull,
+    simulate_pick_place,
+)
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
 
 
@@ -59,8 +66,10 @@ class CylinderModel:
         """Estimated radius of object `index` (cached by name: moving does not change it)."""
         obj = state.objects[index]
         if obj.name not in self._radius:
-            xy = completed_footprint_points(obj)
-            self._radius[obj.name] = float(np.linalg.norm(xy - [obj.x, obj.y], axis=1).max())
+            hull = footprint_hull(obj)
+            x, y = hull[:, 0], hull[:, 1]
+            area = 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+            self._radius[obj.name] = math.sqrt(area / math.pi)
         return self._radius[obj.name]
 
     def circles(self, state: PlanningState) -> tuple[np.ndarray, np.ndarray]:
