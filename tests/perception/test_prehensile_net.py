@@ -9,7 +9,7 @@ from tsad_drake.perception.prehensile_net import (
     PrehensileNet,
     ball_query,
     farthest_point_sampling,
-    object_block_probability,
+    segment_max,
 )
 
 
@@ -42,13 +42,18 @@ def test_ball_query_stays_in_radius_and_pads_with_nearest():
     assert idx[0, 0, 0] == 0
 
 
+def _ids(batch: int, points: int, objects: int) -> torch.Tensor:
+    ids = torch.randint(-2, objects, (batch, points))
+    return torch.where(ids == -1, torch.full_like(ids, -2), ids)
+
+
 def test_forward_shapes_and_backward():
     cfg = NetConfig()
     net = PrehensileNet(cfg)
     xy = torch.randn(3, cfg.num_points, 2)
     feats = torch.rand(3, cfg.num_points, cfg.in_features)
-    reach, block = net(xy, feats)
-    assert reach.shape == (3,) and block.shape == (3, cfg.num_points)
+    reach, block = net(xy, feats, _ids(3, cfg.num_points, 5), 5)
+    assert reach.shape == (3,) and block.shape == (3, 5)
     (reach.sum() + block.mean()).backward()
     grads = [p.grad for p in net.parameters()]
     assert all(g is not None and torch.isfinite(g).all() for g in grads)
@@ -59,16 +64,32 @@ def test_point_order_does_not_matter_beyond_the_start_point():
     net = PrehensileNet().eval()
     xy = torch.randn(1, 512, 2)
     feats = torch.rand(1, 512, 3)
+    ids = _ids(1, 512, 6)
     perm = torch.cat([torch.tensor([0]), torch.randperm(511) + 1])
     with torch.no_grad():
-        r1, b1 = net(xy, feats)
-        r2, b2 = net(xy[:, perm], feats[:, perm])
+        r1, b1 = net(xy, feats, ids, 6)
+        r2, b2 = net(xy[:, perm], feats[:, perm], ids[:, perm], 6)
     assert torch.allclose(r1, r2, atol=1e-4)
-    assert torch.allclose(b1[:, perm], b2, atol=1e-4)
+    assert torch.allclose(b1, b2, atol=1e-4)
 
 
-def test_object_block_probability_is_a_per_object_mean():
-    logits = torch.tensor([[10.0, -10.0, 10.0, 10.0, 0.0]])
+def test_an_object_answer_depends_on_its_own_points():
+    """Moving one object's points changes its block logit; relabelling which points belong to
+    which object moves the answers with them."""
+    net = PrehensileNet().eval()
+    xy = torch.randn(1, 512, 2)
+    feats = torch.rand(1, 512, 3)
+    ids = torch.arange(512).remainder(4).unsqueeze(0)  # objects 0..3
+    swapped = torch.where(ids == 1, 2, torch.where(ids == 2, 1, ids))
+    with torch.no_grad():
+        _, b = net(xy, feats, ids, 4)
+        _, b_swapped = net(xy, feats, swapped, 4)
+    assert torch.allclose(b[0, [1, 2]], b_swapped[0, [2, 1]], atol=1e-5)
+    assert not torch.allclose(b[0, 1], b[0, 2])
+
+
+def test_segment_max_pools_per_object_and_ignores_negative_ids():
+    values = torch.tensor([[[1.0], [5.0], [2.0], [9.0], [-3.0]]])
     ids = torch.tensor([[0, 0, 1, -2, 2]])
-    prob = object_block_probability(logits, ids, 4).numpy()
-    np.testing.assert_allclose(prob, [[0.5, 1.0, 0.5, 0.0]], atol=1e-4)
+    out = segment_max(values, ids, 4)
+    np.testing.assert_allclose(out.numpy()[0, :, 0], [5.0, 2.0, -3.0, 0.0])

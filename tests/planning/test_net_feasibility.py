@@ -57,6 +57,23 @@ def test_cache_and_consistency(weights, states):
     assert model.throughput() > 0
 
 
+def test_one_angle_answers_cost_one_query_and_agree(weights, states):
+    from tsad_drake.planning.feasibility import blockers_at, pickable_at
+    from tsad_drake.planning.pick_veto import PickVeto
+
+    _, state, oracle = states[0]
+    lazy, full = NetFeasibility(oracle.workspace, weights), NetFeasibility(oracle.workspace, weights)
+    t, k = state.target_index, 3
+    assert blockers_at(lazy, state, t, k) == full.blockers(state, t)[k]
+    assert lazy.evaluations == 1
+    assert pickable_at(lazy, state, t, k) == bool(full.pickable(state, t)[k])
+    assert lazy.evaluations == 1  # same query, cached
+    # a vetoed pick stays vetoed through the one-angle path
+    vetoed = PickVeto(lazy, {(state.objects[t].name, k)})
+    assert pickable_at(vetoed, state, t, k) is False
+    assert not vetoed.pickable(state, t)[k]
+
+
 def test_place_options_are_network_checked_geometric_proposals(weights, states):
     from tsad_drake.planning.pointcloud_sim import simulate_pick_place
     from tsad_drake.planning.types import Action

@@ -7,10 +7,12 @@ shared MLP + max pool: 512 -> 128 centroids x 16 neighbours -> 32 centroids x 32
 
 - `reach` head (MLP on the max-pooled global feature): the queried object fits the stroke at this
   angle and its corridor misses the side walls;
-- `block` head (per point; SA2 features interpolated back to every input point, as in PointNet++'s
-  feature propagation, plus the point's own features and the global feature): the object this
-  point belongs to lies in the approach corridor. An object blocks when the mean probability over
-  its points exceeds 0.5.
+- `block` head (per object): every input point gets an embedding from its own features, the SA2
+  and SA1 features interpolated back to it (PointNet++'s feature propagation) and the global
+  feature; the embeddings are max-pooled over each object's points (the object ids are part of
+  the input: segmentation is known) and an MLP says whether that object lies in the approach
+  corridor. Pooling per object lets the head judge an object by its whole visible extent (one
+  point inside the corridor is enough), which a per-point vote averaged over the object did not.
 
 Pickable at theta = reach and no blocking object, so the planners' R_{theta,s} and their
 pickability answers come from one forward pass per (object, angle) and never disagree.
@@ -40,7 +42,8 @@ class NetConfig:
     sa2_mlp: tuple[int, ...] = (32, 64)
     global_mlp: tuple[int, ...] = (64, 128)
     head_mlp: tuple[int, ...] = (64,)
-    point_mlp: tuple[int, ...] = (32, 16)
+    point_mlp: tuple[int, ...] = (32, 32)  #: per-point embedding before the per-object pooling
+    object_mlp: tuple[int, ...] = (16,)  #: per-object head after the pooling
 
 
 def farthest_point_sampling(xy: torch.Tensor, count: int) -> torch.Tensor:
@@ -58,8 +61,12 @@ def farthest_point_sampling(xy: torch.Tensor, count: int) -> torch.Tensor:
 
 
 def squared_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    """(B, M, N) squared distances between a (B, M, D) and b (B, N, D)."""
-    return ((a.unsqueeze(2) - b.unsqueeze(1)) ** 2).sum(-1)
+    """(B, M, N) squared distances between a (B, M, D) and b (B, N, D).
+
+    |a|^2 + |b|^2 - 2 a.b with one batched matrix product: no (B, M, N, D) intermediate, which
+    made this the network's most expensive step on CPU."""
+    cross = torch.baddbmm((a * a).sum(-1, keepdim=True), a, b.transpose(1, 2), alpha=-2.0)
+    return (cross + (b * b).sum(-1).unsqueeze(1)).clamp_(min=0.0)
 
 
 def ball_query(xy: torch.Tensor, centres: torch.Tensor, radius: float, count: int) -> torch.Tensor:
@@ -119,8 +126,21 @@ def interpolate(xy: torch.Tensor, centres: torch.Tensor, values: torch.Tensor) -
     return (gather(values, near) * weight.unsqueeze(-1)).sum(2)
 
 
+def segment_max(values: torch.Tensor, ids: torch.Tensor, num_segments: int) -> torch.Tensor:
+    """(B, S, C) max of `values` (B, N, C) over the points of each id in [0, S); points with a
+    negative id are ignored; an id with no point gets zeros."""
+    b, _, c = values.shape
+    slot = torch.where(ids >= 0, ids, torch.full_like(ids, num_segments)).clamp(max=num_segments)
+    out = torch.full((b, num_segments + 1, c), float("-inf"), dtype=values.dtype)
+    out = out.scatter_reduce(1, slot.unsqueeze(-1).expand(-1, -1, c), values, reduce="amax")
+    out = out[:, :num_segments]
+    return torch.where(torch.isfinite(out), out, torch.zeros_like(out))
+
+
 class PrehensileNet(nn.Module):
-    """forward(xy (B,N,2), feats (B,N,F)) -> (reach logit (B,), per-point block logits (B,N))."""
+    """forward(xy (B,N,2), feats (B,N,F), ids (B,N), num_objects S) ->
+    (reach logit (B,), per-object block logits (B,S)); points with a negative id (walls, the
+    queried object) feed the set abstractions but belong to no object."""
 
     def __init__(self, config: NetConfig | None = None) -> None:
         super().__init__()
@@ -137,41 +157,32 @@ class PrehensileNet(nn.Module):
         width = cfg.point_mlp[0]
         self.point_local = nn.Linear(2 + cfg.in_features + cfg.sa2_mlp[-1] + cfg.sa1_mlp[-1], width)
         self.point_global = nn.Linear(g, width, bias=False)
-        self.point_head = nn.Sequential(nn.ReLU(), mlp(list(cfg.point_mlp), norm=False),
-                                        nn.Linear(cfg.point_mlp[-1], 1))
+        self.point_mlp = nn.Sequential(nn.ReLU(), mlp(list(cfg.point_mlp), norm=False))
+        self.object_head = nn.Sequential(mlp([cfg.point_mlp[-1], *cfg.object_mlp], norm=False),
+                                         nn.Linear(cfg.object_mlp[-1], 1))
 
-    def forward(self, xy: torch.Tensor, feats: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    def forward(self, xy: torch.Tensor, feats: torch.Tensor, ids: torch.Tensor,
+                num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
         c1, f1 = self.sa1(xy, feats)
         c2, f2 = self.sa2(c1, f1)
         glob = self.global_mlp(torch.cat([c2, f2], dim=-1)).max(dim=1).values  # (B, G)
         reach = self.reach_head(glob).squeeze(-1)
         local = torch.cat([xy, feats, interpolate(xy, c2, f2), interpolate(xy, c1, f1)], dim=-1)
-        hidden = self.point_local(local) + self.point_global(glob).unsqueeze(1)
-        return reach, self.point_head(hidden).squeeze(-1)
-
-
-def object_block_probability(block_logits: torch.Tensor, ids: torch.Tensor,
-                             num_objects: int) -> torch.Tensor:
-    """(B, num_objects) mean block probability over each object's points (0 where it has none).
-
-    ids: (B, N) object index per point; negative ids (walls) are ignored.
-    """
-    b = block_logits.shape[0]
-    prob = torch.sigmoid(block_logits)
-    valid = ids >= 0
-    slot = torch.where(valid, ids, torch.full_like(ids, num_objects))
-    sums = torch.zeros(b, num_objects + 1, dtype=prob.dtype).scatter_add_(1, slot, prob)
-    counts = torch.zeros(b, num_objects + 1, dtype=prob.dtype).scatter_add_(
-        1, slot, valid.to(prob.dtype) + (~valid).to(prob.dtype))
-    return (sums / counts.clamp(min=1.0))[:, :num_objects]
+        hidden = self.point_mlp(self.point_local(local) + self.point_global(glob).unsqueeze(1))
+        pooled = segment_max(hidden, ids, num_objects)  # (B, S, H)
+        return reach, self.object_head(pooled).squeeze(-1)
 
 
 def query_scores(net: PrehensileNet, xy, feats, ids, queried: list[int],
                  num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
     """(reach logits (B,), per-object block probabilities (B, num_objects)) of encoded queries
-    (NumPy arrays from `encode_query`); the queried object never counts as its own blocker."""
+    (NumPy arrays from `encode_query`); the queried object never counts as its own blocker
+    (probability 0)."""
     with torch.inference_mode():
-        reach, block = net(torch.from_numpy(xy), torch.from_numpy(feats))
         ids_t = torch.from_numpy(ids.astype("int64"))
-        ids_t[ids_t == torch.tensor(queried).unsqueeze(1)] = -1
-        return reach, object_block_probability(block, ids_t, num_objects)
+        mine = ids_t == torch.tensor(queried).unsqueeze(1)
+        ids_t[mine] = -1
+        reach, block = net(torch.from_numpy(xy), torch.from_numpy(feats), ids_t, num_objects)
+        prob = torch.sigmoid(block)
+        prob[torch.arange(len(queried)), torch.tensor(queried)] = 0.0
+        return reach, prob

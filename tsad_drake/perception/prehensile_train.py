@@ -24,17 +24,12 @@ from torch import nn
 
 from tsad_drake.cli import UsageError
 from tsad_drake.perception import prehensile_data as pdata
-from tsad_drake.perception.prehensile_net import (
-    NetConfig,
-    PrehensileNet,
-    object_block_probability,
-    query_scores,
-)
+from tsad_drake.perception.prehensile_net import NetConfig, PrehensileNet, query_scores
 
-CHECKPOINT_FORMAT = "tsad-prehensile-net-v1"
+CHECKPOINT_FORMAT = "tsad-prehensile-net-v2"  #: v2: per-object block head (v1: per point)
 #: the shipped weights, produced by `tsad train` (see README: model card)
 DEFAULT_WEIGHTS = Path(__file__).resolve().parent.parent / "data" / "prehensile_net.pt"
-BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-point blocker loss against the reach loss
+BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-object blocker loss against the reach loss
 
 
 class WeightsError(UsageError):
@@ -88,9 +83,19 @@ def load_checkpoint(path: str | Path | None = None) -> tuple[PrehensileNet, dict
 
 # -- training ------------------------------------------------------------------------------------
 def to_tensors(data: pdata.Samples, rows: np.ndarray) -> tuple[torch.Tensor, ...]:
+    """(xy, feats, ids, object labels, object present, reach) of dataset rows. ids are -1 for
+    points that belong to no candidate blocker (walls, the queried object); an object's label is
+    1 when its points are labelled as blocker points."""
+    plabel = torch.from_numpy(data.point_label[rows].astype(np.int64))
+    ids = torch.from_numpy(data.ids[rows].astype(np.int64))
+    ids = torch.where(plabel < 0, torch.full_like(ids, -1), ids)
+    num = int(ids.max()) + 1 if ids.numel() and int(ids.max()) >= 0 else 1
+    slot = torch.where(ids >= 0, ids, torch.full_like(ids, num))
+    present = torch.zeros(len(rows), num + 1).scatter_add_(1, slot, torch.ones_like(slot, dtype=torch.float))
+    positive = torch.zeros(len(rows), num + 1).scatter_add_(1, slot, (plabel == 1).float())
     return (torch.from_numpy(data.xy[rows].astype(np.float32)),
             torch.from_numpy(data.feats[rows].astype(np.float32)),
-            torch.from_numpy(data.point_label[rows].astype(np.int64)),
+            ids, (positive[:, :num] > 0).float(), present[:, :num] > 0,
             torch.from_numpy(data.reach[rows].astype(np.float32)))
 
 
@@ -99,32 +104,28 @@ def augment(xy: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
     return xy + torch.randn(xy.shape, generator=generator) * (0.001 / pdata.COORD_SCALE)
 
 
-def losses(net: PrehensileNet, xy, feats, point_label, reach, pos_weight: float):
-    reach_logit, block_logit = net(xy, feats)
+def losses(net: PrehensileNet, xy, feats, ids, labels, present, reach, pos_weight: float):
+    reach_logit, block_logit = net(xy, feats, ids, labels.shape[1])
     reach_loss = nn.functional.binary_cross_entropy_with_logits(reach_logit, reach)
-    mask = point_label >= 0
     block_loss = nn.functional.binary_cross_entropy_with_logits(
-        block_logit[mask], point_label[mask].float(),
-        pos_weight=torch.tensor(pos_weight))
+        block_logit[present], labels[present], pos_weight=torch.tensor(pos_weight))
     return reach_loss + BLOCK_LOSS_WEIGHT * block_loss, reach_logit, block_logit
 
 
 def predict_samples(net: PrehensileNet, data: pdata.Samples, rows: np.ndarray,
-                    batch: int = 128) -> tuple[np.ndarray, np.ndarray]:
-    """(reach prediction (Q,), collide prediction (Q,)) for dataset rows; a query collides when
-    some object other than the queried one has a mean point block probability above 0.5."""
-    reach, collide = [], []
+                    batch: int = 128) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(reach prediction, collide prediction, blocker set exact) per dataset row; a query
+    collides when some object other than the queried one has a block probability above 0.5."""
+    reach, collide, exact = [], [], []
     with torch.no_grad():
         for start in range(0, len(rows), batch):
-            part = rows[start:start + batch]
-            xy, feats, plabel, _ = to_tensors(data, part)
-            r, b = net(xy, feats)
-            ids = torch.from_numpy(data.ids[part].astype(np.int64))
-            ids = torch.where(plabel < 0, torch.full_like(ids, -1), ids)  # drop query and walls
-            prob = object_block_probability(b, ids, int(ids.max()) + 1 if ids.numel() else 1)
+            xy, feats, ids, labels, present, _ = to_tensors(data, rows[start:start + batch])
+            r, b = net(xy, feats, ids, labels.shape[1])
+            blocks = (torch.sigmoid(b) > 0.5) & present
             reach.append((r > 0).numpy())
-            collide.append((prob > 0.5).any(dim=1).numpy())
-    return np.concatenate(reach), np.concatenate(collide)
+            collide.append(blocks.any(dim=1).numpy())
+            exact.append((blocks == (labels > 0)).all(dim=1).numpy())
+    return np.concatenate(reach), np.concatenate(collide), np.concatenate(exact)
 
 
 def binary_metrics(pred: np.ndarray, truth: np.ndarray) -> dict:
@@ -165,8 +166,8 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
     if len(train_rows) == 0 or len(val_rows) == 0:
         raise ValueError(f"dataset {data_dir} needs scenes in the train and validation splits "
                          "(seeds with seed % 10 == 8 are validation): generate more scenes")
-    labelled = data.point_label[train_rows]
-    positive = float((labelled == 1).sum()) / max(float((labelled >= 0).sum()), 1.0)
+    _, _, _, labels, present, _ = to_tensors(data, train_rows[:4000])
+    positive = float(labels[present].mean()) if bool(present.any()) else 0.5
     pos_weight = float(np.clip((1 - positive) / max(positive, 1e-6), 1.0, 10.0) ** 0.5)
     net = PrehensileNet(NetConfig(num_points=pdata.NUM_POINTS))
     opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=1e-4)
@@ -191,8 +192,10 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
                    disable=not progress, leave=False)
         running, timed_out = [], False
         for step in bar:
-            xy, feats, plabel, reach = to_tensors(data, order[step * batch:(step + 1) * batch])
-            loss, _, _ = losses(net, augment(xy, gen), feats, plabel, reach, pos_weight)
+            xy, feats, ids, labels, present, reach = to_tensors(
+                data, order[step * batch:(step + 1) * batch])
+            loss, _, _ = losses(net, augment(xy, gen), feats, ids, labels, present, reach,
+                                pos_weight)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -205,14 +208,18 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
         bar.close()
         net.eval()
         val = evaluate_rows(net, data, val_rows)
-        score = val["pickable"]["accuracy"]
+        # the planners read both the pickable decision and the blocker sets R_{theta,s}
+        score = 0.5 * (val["pickable"]["accuracy"] + val["blockers_exact"])
         entry = {"epoch": epoch + 1, "train_loss": round(float(np.mean(running)), 5),
-                 "val_pickable_accuracy": score, "val_reach_accuracy": val["reach"]["accuracy"],
+                 "val_pickable_accuracy": val["pickable"]["accuracy"],
+                 "val_blockers_exact": val["blockers_exact"],
+                 "val_reach_accuracy": val["reach"]["accuracy"],
                  "val_collide_accuracy": val["collide"]["accuracy"],
                  "minutes": round((time.perf_counter() - start) / 60, 2)}
         history.append(entry)
         if progress:
-            print(f"epoch {epoch + 1}: loss {entry['train_loss']:.4f} val pickable acc {score:.4f} "
+            print(f"epoch {epoch + 1}: loss {entry['train_loss']:.4f} val pickable acc "
+                  f"{entry['val_pickable_accuracy']:.4f} R exact {entry['val_blockers_exact']:.4f} "
                   f"reach {entry['val_reach_accuracy']:.4f} collide {entry['val_collide_accuracy']:.4f}"
                   f" ({entry['minutes']:.1f} min)", flush=True)
         if score > best:
@@ -228,17 +235,18 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
             break
     if calibrate_scenes > 0:
         calibrate_thresholds(out, calibrate_scenes, progress=progress)
-    return {"best_val_pickable_accuracy": best, "epochs_run": len(history), "history": history,
+    return {"best_val_score": best, "epochs_run": len(history), "history": history,
             "minutes": round((time.perf_counter() - start) / 60, 2), "weights": str(out)}
 
 
 def evaluate_rows(net: PrehensileNet, data: pdata.Samples, rows: np.ndarray) -> dict:
     """Sample-level metrics (reach, collide, pickable) on dataset rows."""
-    reach, collide = predict_samples(net, data, rows)
+    reach, collide, exact = predict_samples(net, data, rows)
     true_collide = (data.point_label[rows] == 1).any(axis=1)
     return {"reach": binary_metrics(reach, data.reach[rows]),
             "collide": binary_metrics(collide, true_collide),
-            "pickable": binary_metrics(reach & ~collide, data.pickable[rows])}
+            "pickable": binary_metrics(reach & ~collide, data.pickable[rows]),
+            "blockers_exact": round(float(exact.mean()), 4)}
 
 
 # -- evaluation on fresh scenes (`tsad net-eval`) ---------------------------------------------

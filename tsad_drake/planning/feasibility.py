@@ -29,7 +29,7 @@ from tsad_drake.geometry2d import (
     width_across,
 )
 from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP, footprint_hull
-from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
+from tsad_drake.planning.types import FeasibilityModel, PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import ObjectConfig, Scenario
 
 #: m, how far in front of the shelf's front edge the approach corridor starts
@@ -102,6 +102,19 @@ def corridor_hits(centres: np.ndarray, thetas: np.ndarray, corridors: np.ndarray
 def angle_index(thetas: np.ndarray, theta: float) -> int:
     """Index of the approach angle in `thetas` nearest `theta`."""
     return int(np.argmin(np.abs(thetas - theta)))
+
+
+def blockers_at(model: FeasibilityModel, state: PlanningState, index: int, k: int) -> frozenset[int]:
+    """R_{theta_k,s} for object `index`: one angle's answer. A model that answers a single angle
+    more cheaply than all of them (the network: one query instead of seven) does so."""
+    one = getattr(model, "blockers_at", None)
+    return one(state, index, k) if one is not None else model.blockers(state, index)[k]
+
+
+def pickable_at(model: FeasibilityModel, state: PlanningState, index: int, k: int) -> bool:
+    """Whether object `index` is pickable at angle k (one angle's answer, as `blockers_at`)."""
+    one = getattr(model, "pickable_at", None)
+    return bool(one(state, index, k) if one is not None else model.pickable(state, index)[k])
 
 
 def approach_order(thetas: np.ndarray, prefer: float) -> np.ndarray:

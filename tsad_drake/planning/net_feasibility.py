@@ -135,6 +135,17 @@ class NetFeasibility:
         """Per approach angle, the objects the network puts in the corridor to object `index`."""
         return [b for _, b in self._object_answers(state, index)]
 
+    def blockers_at(self, state: PlanningState, index: int, k: int) -> frozenset[int]:
+        """R_{theta_k,s} for object `index`: one network query (cached)."""
+        self.evaluate([(state, index, k)])
+        return self._answers[state.key()][(index, k)][1]
+
+    def pickable_at(self, state: PlanningState, index: int, k: int) -> bool:
+        """Object `index` pickable at angle k: one network query (cached)."""
+        self.evaluate([(state, index, k)])
+        reach, blockers = self._answers[state.key()][(index, k)]
+        return reach and not blockers
+
     def reachable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) the network says object `index` fits the stroke and its corridor misses the walls."""
         return np.array([r for r, _ in self._object_answers(state, index)], dtype=bool)

@@ -26,7 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from tsad_drake.planning.actions import choose_theta_pick, legal_actions, random_action
-from tsad_drake.planning.feasibility import angle_index
+from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.plan_check import action_key, rearrangement_set, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
@@ -230,11 +230,10 @@ class SubSearch:
 
     def relevant(self, state: PlanningState) -> list[int]:
         """Indices of R_{theta*,s} and of the objects blocking any approach to its members."""
-        blockers = self.feasibility.blockers
-        members = set(blockers(state, state.target_index)[self.k])
+        members = set(blockers_at(self.feasibility, state, state.target_index, self.k))
         related = set(members)
         for i in members:
-            for per_angle in blockers(state, i):
+            for per_angle in self.feasibility.blockers(state, i):
                 related |= per_angle
         related.discard(state.target_index)
         return sorted(related)
