@@ -229,12 +229,12 @@ class SubSearch:
         return Node(state, action, parent, depth, reward, terminal, reward, has_terminal=terminal)
 
     def relevant(self, state: PlanningState) -> list[int]:
-        """Indices of R_{theta*,s} and of the objects blocking any approach to its members."""
+        """Indices of R_{theta*,s} and of the objects blocking its members along theta* (the ones
+        in front of them, which must go first)."""
         members = set(blockers_at(self.feasibility, state, state.target_index, self.k))
         related = set(members)
         for i in members:
-            for per_angle in self.feasibility.blockers(state, i):
-                related |= per_angle
+            related |= blockers_at(self.feasibility, state, i, self.k)
         related.discard(state.target_index)
         return sorted(related)
 
