@@ -74,6 +74,29 @@ def test_one_angle_answers_cost_one_query_and_agree(weights, states):
     assert not vetoed.pickable(state, t)[k]
 
 
+def test_first_place_option_is_the_first_valid_cell_of_place_options(weights, states):
+    from tsad_drake.planning.actions import choose_theta_pick
+
+    _, state, oracle = states[0]
+    ws = oracle.workspace
+    full, lazy = NetFeasibility(ws, weights), NetFeasibility(ws, weights)
+    checked = 0
+    for i in range(len(state.objects)):
+        theta = choose_theta_pick(full, state, i, ws)
+        if theta is None or i == state.target_index:
+            continue
+        options = full.place_options(state, i, theta)
+        order = list(np.random.default_rng(i).permutation(len(ws.cell_centres)))
+        valid = [c for c in order if np.isfinite(options[c])]
+        found = lazy.first_place_option(state, i, theta, order)
+        if valid:
+            assert found == (valid[0], options[valid[0]])
+            checked += 1
+        else:
+            assert found is None
+    assert checked > 0
+
+
 def test_place_options_are_network_checked_geometric_proposals(weights, states):
     from tsad_drake.planning.pointcloud_sim import simulate_pick_place
     from tsad_drake.planning.types import Action

@@ -79,13 +79,31 @@ def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace
                   among: list[int] | None = None) -> Action | None:
     """A uniformly random feasible action (random object, then random valid cell), or None.
 
-    `among` restricts the objects considered (default: every object but the target).
+    `among` restricts the objects considered (default: every object but the target). A model
+    with `first_place_option` (the network) checks cells one at a time in a random order instead
+    of all of them: the first valid cell of a random permutation is uniform over the valid ones,
+    at a fraction of the queries.
     """
     movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
     if among is not None:
         movable = [i for i in movable if i in among]
+    first_option = getattr(feasibility, "first_place_option", None)
     for i in rng.permutation(movable):
-        actions = object_actions(feasibility, state, int(i), workspace, prefer)
-        if actions:
-            return actions[int(rng.integers(len(actions)))]
+        if first_option is None:
+            actions = object_actions(feasibility, state, int(i), workspace, prefer)
+            if actions:
+                return actions[int(rng.integers(len(actions)))]
+            continue
+        theta_pick = choose_theta_pick(feasibility, state, int(i), workspace, prefer)
+        if theta_pick is None:
+            continue
+        obj = state.objects[int(i)]
+        cells = workspace.cell_centres
+        order = [int(c) for c in rng.permutation(len(cells))
+                 if np.hypot(cells[c, 0] - obj.x, cells[c, 1] - obj.y) >= SAME_PLACE]
+        found = first_option(state, int(i), theta_pick, order)
+        if found is not None:
+            c, theta_place = found
+            return Action(obj.name, theta_pick, float(cells[c, 0]), float(cells[c, 1]),
+                          float(theta_place))
     return None

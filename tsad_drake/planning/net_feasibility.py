@@ -161,30 +161,48 @@ class NetFeasibility:
         least rotation that the perceived geometry allows); the network keeps the cell when object
         `index` is pickable at that angle in the simulated next state s'.
         """
-        from tsad_drake.planning.pointcloud_sim import simulate_pick_place
-
         memo_key = (state.key(), index, round(float(theta_pick), 9))
         if memo_key in self._place_memo:
             return self._place_memo[memo_key]
         proposal = self.placement_model.place_options(state, index, theta_pick)
         cells = np.nonzero(~np.isnan(proposal))[0]
-        thetas = self.workspace.approach_angles
-        name = state.objects[index].name
-        requests = []
-        for c in cells:
-            x, y = self.workspace.cell_centres[c]
-            nxt = simulate_pick_place(state, Action(name, float(theta_pick), float(x), float(y),
-                                                    float(proposal[c])))
-            k = angle_index(thetas, proposal[c])
-            requests.append((nxt, index, k))
+        requests = [self._place_request(state, index, theta_pick, c, proposal[c]) for c in cells]
         self.evaluate(requests)
         result = np.full(len(self.workspace.cell_centres), np.nan)
-        for c, (nxt, i, k) in zip(cells, requests):
-            reach, blockers = self._answers[nxt.key()][(i, k)]
-            if reach and not blockers:
+        for c, request in zip(cells, requests):
+            if self._pickable_answer(request):
                 result[c] = proposal[c]
         self._place_memo[memo_key] = result
         return result
+
+    def first_place_option(self, state: PlanningState, index: int, theta_pick: float,
+                           cells: list[int]) -> tuple[int, float] | None:
+        """The first of `cells` (in that order) where `place_options` would allow the placement,
+        with its theta_place, querying the network one proposed cell at a time."""
+        proposal = self.placement_model.place_options(state, index, theta_pick)
+        for c in cells:
+            if np.isnan(proposal[c]):
+                continue
+            request = self._place_request(state, index, theta_pick, c, proposal[c])
+            self.evaluate([request])
+            if self._pickable_answer(request):
+                return c, float(proposal[c])
+        return None
+
+    def _place_request(self, state: PlanningState, index: int, theta_pick: float, cell: int,
+                       theta_place: float) -> tuple[PlanningState, int, int]:
+        """(s', index, angle index of theta_place): object `index` moved to `cell` in s'."""
+        from tsad_drake.planning.pointcloud_sim import simulate_pick_place
+
+        x, y = self.workspace.cell_centres[cell]
+        nxt = simulate_pick_place(state, Action(state.objects[index].name, float(theta_pick),
+                                                float(x), float(y), float(theta_place)))
+        return nxt, index, angle_index(self.workspace.approach_angles, theta_place)
+
+    def _pickable_answer(self, request: tuple[PlanningState, int, int]) -> bool:
+        nxt, i, k = request
+        reach, blockers = self._answers[nxt.key()][(i, k)]
+        return reach and not blockers
 
     def throughput(self) -> float:
         """Network evaluations per second of network time so far (0 before any)."""
