@@ -58,7 +58,7 @@ class TSADConfig:
     #: closed loop adds to it and plans again, so the first action is never one of them
     excluded_actions: tuple[tuple[str, float, float], ...] = ()
     #: probability that a rollout step moves a relevant object (a member of R_{theta*,s} or an
-    #: object blocking a member's approach) instead of any object; 0 is the paper's uniform
+    #: object blocking a member along theta*) instead of any object; 0 is the paper's uniform
     #: random policy. Expansion also tries relevant objects' actions first when this is > 0.
     rollout_bias: float = 0.7
     #: whole sequential searches tried (fresh random streams) until one reaches R = empty; the
