@@ -1,11 +1,13 @@
 """The `net` FeasibilityModel: the prehensile decision network answers the planners' questions.
 
 One network query is (state, object i, approach angle theta) -> whether i fits the stroke and its
-corridor misses the walls (`reach`) and, per object j, whether j lies in the corridor (mean per-point
-block probability of j's points > 0.5). From these:
+corridor misses the walls (`reach`) and, per object j, the probability that j lies in the corridor
+(the per-object head; `blocker_set` turns them into R with the calibrated thresholds). From these:
 
 - blockers(state, i)[a]: R_{theta_a, s} for i (the smallest rearrangement set when i is the target);
 - pickable(state, i)[a]: reach and no blocker, so theta_pick = a pickable angle;
+- blockers_at / pickable_at(state, i, a): the same for one angle, one query (what the planners
+  read where they need one angle only);
 - place_options(state, i, theta_pick): theta_place per grid cell. The point-cloud simulation
   proposes cells where i's perceived footprint fits (inside the shelf, clear of the others'
   footprints; the `geometric` model's placement test) with an angle; the network then decides on
@@ -143,8 +145,7 @@ class NetFeasibility:
     def pickable_at(self, state: PlanningState, index: int, k: int) -> bool:
         """Object `index` pickable at angle k: one network query (cached)."""
         self.evaluate([(state, index, k)])
-        reach, blockers = self._answers[state.key()][(index, k)]
-        return reach and not blockers
+        return self._pickable_answer((state, index, k))
 
     def reachable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) the network says object `index` fits the stroke and its corridor misses the walls."""
@@ -200,8 +201,9 @@ class NetFeasibility:
         return nxt, index, angle_index(self.workspace.approach_angles, theta_place)
 
     def _pickable_answer(self, request: tuple[PlanningState, int, int]) -> bool:
-        nxt, i, k = request
-        reach, blockers = self._answers[nxt.key()][(i, k)]
+        """Reach and no blocker for an evaluated (state, object, angle index) request."""
+        state, i, k = request
+        reach, blockers = self._answers[state.key()][(i, k)]
         return reach and not blockers
 
     def throughput(self) -> float:
