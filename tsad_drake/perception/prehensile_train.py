@@ -356,14 +356,16 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
     # the set threshold: the most exact R_{theta,s} given the collision threshold just chosen
     from tsad_drake.planning.net_feasibility import blocker_set
 
+    def exactness(set_threshold: float) -> float:
+        return float(np.mean([blocker_set(p, i, best[2], set_threshold) == truth
+                              for (p, i), truth in zip(pair_probs, true_sets)]))
+
     best_set = (-1.0, best[2])
     for st in np.linspace(best[2], 0.95, 15):
-        exact = float(np.mean([blocker_set(p, i, best[2], st) == truth
-                               for (p, i), truth in zip(pair_probs, true_sets)]))
+        exact = exactness(float(st))
         if exact > best_set[0] + 1e-9:
             best_set = (exact, float(st))
-    exact_single = float(np.mean([blocker_set(p, i, best[2], best[2]) == truth
-                                  for (p, i), truth in zip(pair_probs, true_sets)]))
+    exact_single = exactness(best[2])
     meta.update(reach_threshold=best[1], block_threshold=best[2], set_threshold=best_set[1],
                 calibration={"seeds": [seed_start, seed_start + scenes - 1],
                              "queries": int(len(true_pick)), "accuracy": round(best[0], 4),
