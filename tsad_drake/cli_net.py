@@ -43,8 +43,9 @@ def add_net_parsers(sub) -> None:
                        description=(
                            "Train the PointNet++ prehensile network on a `tsad dataset` directory "
                            "(seeded, CPU), validate after each epoch and keep the checkpoint with "
-                           "the best validation pickable accuracy at --out. Stops after --epochs or "
-                           "--max-minutes."))
+                           "the best validation score (mean of pickable accuracy and exact "
+                           "blocker-set rate) at --out, then calibrate its decision thresholds on "
+                           "fresh scenes. Stops after --epochs or --max-minutes."))
     p.add_argument("--data", required=True, help="dataset directory from `tsad dataset`")
     p.add_argument("--out", required=True, help="weights file to write (.pt)")
     p.add_argument("--epochs", type=int, default=30, help="epochs (default 30)")

@@ -8,6 +8,8 @@ from pathlib import Path
 
 PLANNER_NAMES = ("tsad", "gp3", "rots", "rots-star", "optimal")
 FEASIBILITY_NAMES = ("net", "geometric", "oracle")
+#: --feasibility when none is given (any other planner: geometric)
+DEFAULT_FEASIBILITY = {"tsad": "net", "optimal": "oracle"}
 ABLATIONS = ("none", "no-ro", "no-re")
 OBSERVERS = ("drake", "raycast")
 
@@ -17,10 +19,11 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
                    help="tsad (the paper's method), gp3, rots, rots-star (ROTS checked by the "
                         "feasibility model) or optimal (exhaustive search on the oracle model, "
                         "budgeted: the floor for action counts)")
-    p.add_argument("--feasibility", default="geometric", choices=FEASIBILITY_NAMES,
-                   help="prehensile feasibility model the planner queries: geometric (gripper "
-                        "swept volume against perceived point clouds; default), oracle (true "
-                        "geometry) or net (the shipped PointNet++ prehensile network)")
+    p.add_argument("--feasibility", default=None, choices=FEASIBILITY_NAMES,
+                   help="prehensile feasibility model the planner queries: net (the shipped "
+                        "PointNet++ prehensile network; default for tsad), geometric (gripper "
+                        "swept volume against perceived point clouds; default for gp3, rots and "
+                        "rots-star) or oracle (true geometry; default for optimal)")
     p.add_argument("--ablation", default="none", choices=ABLATIONS,
                    help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none)")
     p.add_argument("--observer", default=default_observer, choices=OBSERVERS,
@@ -79,6 +82,8 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
 def _validate_common(args: argparse.Namespace) -> None:
     from tsad_drake.cli import UsageError
 
+    if args.feasibility is None:
+        args.feasibility = DEFAULT_FEASIBILITY.get(args.planner, "geometric")
     if args.max_actions <= 0:
         raise UsageError("--max-actions must be at least 1")
     if args.feasibility == "net":

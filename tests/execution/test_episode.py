@@ -31,6 +31,18 @@ def test_closed_loop_episode_succeeds_and_serialises():
                                        "sub_search"}
 
 
+def test_tsad_on_the_shipped_network_retrieves_the_target():
+    """TSAD planning on the prehensile network (`--feasibility net`, its default weights): the
+    episode succeeds in the world model (true shapes) and counts its network queries."""
+    scenario = generate_scenario("1", 1)
+    config = make_config("tsad", time_budget_s=60.0)  # generous: the outcome, not the speed
+    result = run_episode(scenario, get_planner("tsad"), "net",
+                         lambda s: observe_raycast(s).scene, config, seed=1, planner_name="tsad")
+    assert result.success and result.falls == 0, result.failure_reason
+    assert result.num_actions == len(result.actions) + 1
+    assert result.network_evaluations > 0 and result.network_seconds > 0
+
+
 def test_bad_names_and_limits():
     with pytest.raises(ValueError, match="unknown planner"):
         get_planner("astar")

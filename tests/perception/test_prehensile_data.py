@@ -98,3 +98,30 @@ def test_drake_rendered_scene_gives_labelled_samples():
     samples = pdata.scene_samples(SEED, observer="drake")
     assert samples is not None and len(samples) > 10
     assert samples.pickable.any() and (~samples.pickable).any()
+
+
+def test_encoding_keeps_every_object_that_reaches_into_the_corridor():
+    """Sampling to NUM_POINTS keeps the queried object's points and, for every object with a
+    point inside the approach corridor, at least one such point, flagged in-corridor; oracle
+    blockers are almost always among them (the rest are hidden from every view)."""
+    kept = total = 0
+    for _, state, oracle in pdata.scene_states(SEED, relocations=1, reobserve=False):
+        cloud = pdata.state_cloud(state, oracle.workspace)
+        labels = pdata.oracle_labels(oracle, state)
+        thetas = oracle.workspace.approach_angles
+        for i in range(len(state.objects)):
+            for k, theta in enumerate(thetas):
+                xy, feats, ids = pdata.encode_query(cloud, i, float(theta), k)
+                assert xy.shape == (pdata.NUM_POINTS, 2) and set(np.unique(feats[:, 3])) <= {0, 1}
+                c, s = np.cos(theta), np.sin(theta)
+                rel = cloud.xy - cloud.centres[i]
+                rx, ry = c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]
+                inside = ((np.abs(ry) <= cloud.half_width) & (rx <= cloud.finger_reach)
+                          & (rx >= pdata.CROP_BACK) & (np.abs(ry) <= pdata.CROP_HALF_WIDTH))
+                reaching = set(cloud.ids[inside].tolist()) - {i}
+                flagged = set(ids[feats[:, 3] > 0].tolist()) - {i}
+                assert flagged == reaching
+                assert (ids == i).sum() >= min((cloud.ids == i).sum(), pdata.MAX_QUERY_POINTS)
+                kept += len(set(labels.blockers[i][k]) & flagged)
+                total += len(labels.blockers[i][k])
+    assert total > 0 and kept >= 0.95 * total

@@ -33,13 +33,21 @@ def test_farthest_point_sampling_spreads_points():
         assert gaps.min() >= d.max() - 1e-6
 
 
-def test_ball_query_stays_in_radius_and_pads_with_nearest():
+def test_ball_query_stays_in_radius_and_pads_with_first():
     xy = torch.tensor([[[0.0, 0.0], [0.1, 0.0], [0.2, 0.0], [5.0, 5.0]]])
     centres = xy[:, :1]
     idx = ball_query(xy, centres, radius=0.15, count=6)
     assert idx.shape == (1, 1, 6)
     assert set(idx[0, 0].tolist()) == {0, 1}
     assert idx[0, 0, 0] == 0
+
+
+
+def test_ball_query_takes_the_first_points_in_input_order():
+    # five points inside the ball, room for three: the first three in input order, none outside
+    xy = torch.tensor([[[0.0, 0.0], [9.0, 9.0], [0.05, 0.0], [0.0, 0.08], [0.02, 0.02], [0.0, 0.01]]])
+    idx = ball_query(xy, xy[:, :1], radius=0.1, count=3)
+    assert idx[0, 0].tolist() == [0, 2, 3]
 
 
 def _ids(batch: int, points: int, objects: int) -> torch.Tensor:
@@ -60,12 +68,20 @@ def test_forward_shapes_and_backward():
     assert sum(float(g.abs().sum()) for g in grads) > 0
 
 
-def test_point_order_does_not_matter_beyond_the_start_point():
-    net = PrehensileNet().eval()
-    xy = torch.randn(1, 512, 2)
-    feats = torch.rand(1, 512, 3)
-    ids = _ids(1, 512, 6)
-    perm = torch.cat([torch.tensor([0]), torch.randperm(511) + 1])
+def test_point_order_does_not_matter_when_every_ball_holds_its_centre_only():
+    """Ball query takes the first K points in input order, so the input order matters only where
+    a ball holds more than K points; with points further apart than both radii (each ball holds
+    its centre alone) any order after the start point gives the same answers."""
+    cfg = NetConfig()
+    net = PrehensileNet(cfg).eval()
+    side = int(cfg.num_points ** 0.5)
+    grid = torch.stack(torch.meshgrid(torch.arange(side), torch.arange(side), indexing="ij"), -1)
+    xy = (grid.reshape(1, -1, 2).float() * 1.01 * cfg.sa2_radius * 1.5
+          + torch.rand(1, side * side, 2) * 0.01)
+    n = xy.shape[1]
+    feats = torch.rand(1, n, cfg.in_features)
+    ids = _ids(1, n, 6)
+    perm = torch.cat([torch.tensor([0]), torch.randperm(n - 1) + 1])
     with torch.no_grad():
         r1, b1 = net(xy, feats, ids, 6)
         r2, b2 = net(xy[:, perm], feats[:, perm], ids[:, perm], 6)
@@ -76,10 +92,11 @@ def test_point_order_does_not_matter_beyond_the_start_point():
 def test_an_object_answer_depends_on_its_own_points():
     """Moving one object's points changes its block logit; relabelling which points belong to
     which object moves the answers with them."""
-    net = PrehensileNet().eval()
-    xy = torch.randn(1, 512, 2)
-    feats = torch.rand(1, 512, 3)
-    ids = torch.arange(512).remainder(4).unsqueeze(0)  # objects 0..3
+    cfg = NetConfig()
+    net = PrehensileNet(cfg).eval()
+    xy = torch.randn(1, cfg.num_points, 2)
+    feats = torch.rand(1, cfg.num_points, cfg.in_features)
+    ids = torch.arange(cfg.num_points).remainder(4).unsqueeze(0)  # objects 0..3
     swapped = torch.where(ids == 1, 2, torch.where(ids == 2, 1, ids))
     with torch.no_grad():
         _, b = net(xy, feats, ids, 4)

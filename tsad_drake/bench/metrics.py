@@ -28,6 +28,11 @@ def summarise(rows: list[dict]) -> dict:
         values = [r[key] for r in rows if r.get(key) is not None]
         if values:
             summary[f"mean_{key}"] = _mean(values)
+    evaluations = sum(r.get("network_evaluations", 0) for r in rows)
+    if evaluations:
+        seconds = sum(r.get("network_seconds", 0.0) for r in rows)
+        summary["network_evaluations_mean"] = evaluations / len(rows)
+        summary["network_queries_per_s"] = evaluations / seconds if seconds else None
     reasons: dict[str, int] = {}
     for r in rows:
         if not r["success"]:
@@ -57,5 +62,8 @@ def paper_table(columns: dict[str, dict]) -> str:
     if any("mean_motion_feasible_share" in s for s in columns.values()):
         row("Motion-feasible share of checked actions",
             lambda s: _fmt(s.get("mean_motion_feasible_share")))
+    if any("network_queries_per_s" in s for s in columns.values()):
+        row("Network queries per episode", lambda s: _fmt(s.get("network_evaluations_mean"), 0))
+        row("Network queries per second", lambda s: _fmt(s.get("network_queries_per_s"), 0))
     row("Episodes", lambda s: str(s["episodes"]))
     return "\n".join(lines)

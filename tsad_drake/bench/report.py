@@ -58,7 +58,19 @@ def _difficulty_lines(columns: dict[str, dict]) -> list[str]:
                 mean = sum(r["num_actions"] for r in finished) / len(finished)
                 lines.append(f"- optimal finished on {len(finished)}/{len(doc['rows'])} scenes; "
                              f"mean optimal number of actions there: {mean:.2f}")
-    return lines + _optimality_lines(columns)
+    return lines + _optimality_lines(columns) + _network_lines(columns)
+
+
+def _network_lines(columns: dict[str, dict]) -> list[str]:
+    """TSAD on the prehensile network against TSAD on the oracle model (the issue's target)."""
+    net, oracle = columns.get("tsad [net]"), columns.get("tsad [oracle]")
+    if net is None or oracle is None:
+        return []
+    a, b = net["summary"], oracle["summary"]
+    return [f"- tsad [net] vs tsad [oracle]: success {a['success_rate']:.2f} vs "
+            f"{b['success_rate']:.2f} ({a['success_rate'] - b['success_rate']:+.2f}), median "
+            f"planning {a['planning_time_median_s']:.1f} vs {b['planning_time_median_s']:.1f} s, "
+            f"{a.get('network_queries_per_s') or 0:.0f} network queries/s"]
 
 
 def _optimality_lines(columns: dict[str, dict]) -> list[str]:

@@ -56,6 +56,10 @@ class EpisodeResult:
     fallen: list[str] = dc.field(default_factory=list)
     failure_reason: str = ""
     planning_time_s: float = 0.0  #: s, summed over every planner call
+    #: feasibility queries the network ran (cache misses) and the seconds spent on them
+    #: (encoding and forward passes), summed over every round; 0 for the footprint models
+    network_evaluations: int = 0
+    network_seconds: float = 0.0
     theta_star_deg: float | None = None  #: retrieval angle of the last plan
     actions: list[dict] = dc.field(default_factory=list)  #: executed actions, in order
     rounds: list[dict] = dc.field(default_factory=list)  #: per plan: claim vs outcome, stats
@@ -181,6 +185,7 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
     vetoes: set[tuple[str, int]] = set()  #: (object, angle index) picks motion planning rejected
     reuse_plans = closed_loop and getattr(config, "reuse_plans", False)
     pending: Plan | None = None  #: the unexecuted sub-searches of the last plan (reuse_plans)
+    models = []  #: the feasibility model of every round (one per observation)
     while not world.done:
         if world.num_actions >= max_actions:
             reason = f"action limit {max_actions} reached"
@@ -188,6 +193,7 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         truth = world.scenario()
         state = state_from_perception(observe(truth))
         feasibility = make_feasibility(feasibility_name, truth, workspace)
+        models.append(feasibility)
         if vetoes:
             feasibility = PickVeto(feasibility, vetoes)
         if not state.target:
@@ -247,6 +253,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
             if not world.retrieve():
                 reason = "target not retrievable after the plan"
             break
+    result.network_evaluations = sum(getattr(m, "evaluations", 0) for m in models)
+    result.network_seconds = sum(getattr(m, "network_seconds", 0.0) for m in models)
     outcome = world.outcome(reason)
     result.success = outcome.success
     result.num_actions = outcome.num_actions - result.random_actions

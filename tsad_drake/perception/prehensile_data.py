@@ -3,8 +3,13 @@
 One query is (state, object i, approach angle theta). Its input is the state's fused cloud plus the
 known side walls, flattened onto a 5 mm xy grid (max height kept), moved so object i's estimated
 centre is the origin and rotated by -theta so the approach runs along +x, cropped to the window the
-approach can touch and sampled to `NUM_POINTS` points. Per point: xy (m / COORD_SCALE) and features
-(height, is-queried-object, is-wall).
+approach can touch and sampled to `NUM_POINTS` points (the queried object's, then every point in
+the corridor, then the rest at random). Per point: xy (m / COORD_SCALE) and features
+(height, is-queried-object, is-wall, in-corridor). In-corridor marks the points inside the open
+gripper's swept corridor (|y| <= swept half width, x <= finger reach in the approach frame): a
+known fact of the gripper, like the walls, so the network need not learn the corridor's edge to
+the millimetre from examples and can spend itself on what the points do not show (the hidden
+backs of objects, whether the queried object fits the stroke).
 
 Labels come from the `oracle` feasibility model (true shapes): `reach` (object i fits the stroke at
 theta and its corridor misses the walls), `pickable` (reach and no object in the corridor) and, per
@@ -27,8 +32,8 @@ import numpy as np
 from tsad_drake.geometry2d import rotation2d, side_wall_polygons
 from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspace
 
-NUM_POINTS = 512  #: points per query
-MAX_QUERY_POINTS = 128  #: at most this many of them from the queried object
+NUM_POINTS = 256  #: points per query
+MAX_QUERY_POINTS = 64  #: at most this many of them from the queried object
 GRID = 0.005  #: m, xy cell of the flattening grid
 COORD_SCALE = 0.2  #: m, coordinates are divided by this
 HEIGHT_SCALE = 0.2  #: m, heights are divided by this
@@ -36,7 +41,7 @@ HEIGHT_SCALE = 0.2  #: m, heights are divided by this
 CROP_BACK, CROP_FRONT, CROP_HALF_WIDTH = -0.60, 0.20, 0.22
 WALL_ID = -2  #: object index of wall points
 SCENARIO_TYPES = ("1", "2", "3", "real")
-NUM_FEATURES = 3  #: height, is-query, is-wall
+NUM_FEATURES = 4  #: height, is-query, is-wall, in-corridor
 SAMPLE_SEED = 1234  #: base seed of the per-query point sampling (deterministic inputs)
 SPLITS = ("train", "val", "test")
 
@@ -70,6 +75,8 @@ class StateCloud:
     z: np.ndarray
     ids: np.ndarray
     centres: np.ndarray  #: (N, 2) estimated object centres
+    half_width: float  #: m, the open gripper's swept half width (the corridor)
+    finger_reach: float  #: m, fingertip sweep past the grasp centre (the corridor's far end)
 
 
 def wall_points(workspace: Workspace) -> np.ndarray:
@@ -114,7 +121,8 @@ def state_cloud(state: PlanningState, workspace: Workspace) -> StateCloud:
     z = [p[1] for p in parts] + [np.full(len(walls), 0.25)]
     ids = [np.full(len(p[1]), k) for k, p in enumerate(parts)] + [np.full(len(walls), WALL_ID)]
     return StateCloud(np.concatenate(xy), np.concatenate(z), np.concatenate(ids),
-                      np.array([[o.x, o.y] for o in state.objects]).reshape(-1, 2))
+                      np.array([[o.x, o.y] for o in state.objects]).reshape(-1, 2),
+                      workspace.swept_half_width, workspace.finger_reach)
 
 
 def encode_query(cloud: StateCloud, index: int, theta: float,
@@ -122,7 +130,7 @@ def encode_query(cloud: StateCloud, index: int, theta: float,
     """Input of query (object `index`, approach `theta`).
 
     Returns:
-        xy (NUM_POINTS, 2) float32 scaled coordinates, feats (NUM_POINTS, 3) float32,
+        xy (NUM_POINTS, 2) float32 scaled coordinates, feats (NUM_POINTS, 4) float32,
         ids (NUM_POINTS,) int64 object index per point (WALL_ID for walls).
     """
     c, s = np.cos(theta), np.sin(theta)
@@ -131,21 +139,27 @@ def encode_query(cloud: StateCloud, index: int, theta: float,
     keep = ((rot[:, 0] >= CROP_BACK) & (rot[:, 0] <= CROP_FRONT)
             & (np.abs(rot[:, 1]) <= CROP_HALF_WIDTH))
     is_query = cloud.ids == index
+    in_corridor = (np.abs(rot[:, 1]) <= cloud.half_width) & (rot[:, 0] <= cloud.finger_reach)
     rng = np.random.default_rng([SAMPLE_SEED, index, angle_index])
     query = np.nonzero(is_query)[0]  # always kept, even outside the window
-    others = np.nonzero(keep & ~is_query)[0]
     if len(query) > MAX_QUERY_POINTS:
         query = rng.choice(query, MAX_QUERY_POINTS, replace=False)
     room = NUM_POINTS - len(query)
-    if len(others) > room:
-        others = rng.choice(others, room, replace=False)
-    chosen = np.concatenate([query, others])
+    # corridor points first (one per object before the rest, should they not all fit): an
+    # object that reaches into the corridor by a few points must not lose them to sampling
+    corridor = rng.permutation(np.nonzero(keep & in_corridor & ~is_query)[0])
+    _, first = np.unique(cloud.ids[corridor], return_index=True)
+    corridor = np.concatenate([corridor[first], np.delete(corridor, first)])[:room]
+    others = np.nonzero(keep & ~in_corridor & ~is_query)[0]
+    if len(others) > room - len(corridor):
+        others = rng.choice(others, room - len(corridor), replace=False)
+    chosen = np.concatenate([query, corridor, others]).astype(np.int64)
     if len(chosen) < NUM_POINTS:  # pad by repeating points (max pooling ignores repeats)
         chosen = np.concatenate([chosen, rng.choice(chosen, NUM_POINTS - len(chosen))])
     ids = cloud.ids[chosen]
     feats = np.stack([cloud.z[chosen] / HEIGHT_SCALE, (ids == index).astype(float),
-                      (ids == WALL_ID).astype(float)], axis=1)
-    return ((rot[chosen] / COORD_SCALE).astype(np.float32), feats.astype(np.float32), ids)
+                      (ids == WALL_ID).astype(float), in_corridor[chosen].astype(float)], axis=1)
+    return (rot[chosen] / COORD_SCALE).astype(np.float32), feats.astype(np.float32), ids
 
 
 def encode_batch(cloud: StateCloud, queries: list[tuple[int, int]],

@@ -2,8 +2,9 @@
 
 Input: one query (see `prehensile_data.encode_query`): NUM_POINTS points with scaled xy in the
 approach frame (approach along +x, queried object at the origin) and per-point features (height,
-is-queried-object, is-wall). Two set-abstraction modules (farthest point sampling + ball query +
-shared MLP + max pool: 512 -> 128 centroids x 16 neighbours -> 32 centroids x 32 neighbours), then
+is-queried-object, is-wall, in-corridor). Two set-abstraction modules (farthest point sampling +
+ball query + shared MLP + max pool: 256 -> 64 centroids x 16 neighbours -> 16 centroids x 16
+neighbours), then
 
 - `reach` head (MLP on the max-pooled global feature): the queried object fits the stroke at this
   angle and its corridor misses the side walls;
@@ -30,14 +31,14 @@ from torch import nn
 class NetConfig:
     """Sizes of the network (radii are in scaled units: metres / COORD_SCALE)."""
 
-    num_points: int = 512
-    in_features: int = 3
-    sa1_centroids: int = 128
+    num_points: int = 256
+    in_features: int = 4  #: prehensile_data.NUM_FEATURES
+    sa1_centroids: int = 64
     sa1_neighbours: int = 16
-    sa1_radius: float = 0.25  #: 0.05 m
+    sa1_radius: float = 0.3  #: 0.06 m
     sa1_mlp: tuple[int, ...] = (16, 32)
-    sa2_centroids: int = 32
-    sa2_neighbours: int = 32
+    sa2_centroids: int = 16
+    sa2_neighbours: int = 16
     sa2_radius: float = 0.75  #: 0.15 m
     sa2_mlp: tuple[int, ...] = (32, 64)
     global_mlp: tuple[int, ...] = (64, 128)
@@ -70,16 +71,19 @@ def squared_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
 
 
 def ball_query(xy: torch.Tensor, centres: torch.Tensor, radius: float, count: int) -> torch.Tensor:
-    """(B, M, count) indices of up to `count` nearest points within `radius` of each centre;
-    slots with no point in the ball repeat the nearest one (always the centre itself here)."""
+    """(B, M, count) indices of the first `count` points (in input order) within `radius` of each
+    centre, as in PointNet++; unused slots repeat the first one (a centre is one of the points, so
+    every ball holds at least one). A cumulative count ranks the points inside each ball and one
+    scatter files them: no sort or top-k over all points."""
     d2 = squared_distances(centres, xy)  # (B, M, N)
-    k = min(count, xy.shape[1])
-    near_d2, near = d2.topk(k, dim=-1, largest=False)
-    outside = near_d2 > radius * radius
-    near = torch.where(outside, near[..., :1].expand_as(near), near)
-    if k < count:
-        near = torch.cat([near, near[..., :1].expand(-1, -1, count - k)], dim=-1)
-    return near
+    b, m, n = d2.shape
+    inside = d2 <= radius * radius
+    rank = inside.cumsum(-1) - 1
+    slot = torch.where(inside & (rank < count), rank, torch.full_like(rank, count))
+    out = torch.full((b, m, count + 1), n, dtype=torch.long, device=xy.device)
+    out.scatter_(2, slot, torch.arange(n, device=xy.device).expand(b, m, n))
+    out = out[..., :count]  # the extra slot collected the points that did not make it
+    return torch.where(out == n, out[..., :1], out)
 
 
 def gather(values: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
@@ -176,13 +180,17 @@ class PrehensileNet(nn.Module):
 def query_scores(net: PrehensileNet, xy, feats, ids, queried: list[int],
                  num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
     """(reach logits (B,), per-object block probabilities (B, num_objects)) of encoded queries
-    (NumPy arrays from `encode_query`); the queried object never counts as its own blocker
-    (probability 0)."""
+    (NumPy arrays from `encode_query`). Probability 0 for the queried object (never its own
+    blocker) and for every object with no point in the query's input: it lies outside the window
+    the approach can touch, and the head, trained on objects that have points, would only
+    answer its bias for the empty pooled embedding."""
     with torch.inference_mode():
         ids_t = torch.from_numpy(ids.astype("int64"))
         mine = ids_t == torch.tensor(queried).unsqueeze(1)
         ids_t[mine] = -1
         reach, block = net(torch.from_numpy(xy), torch.from_numpy(feats), ids_t, num_objects)
-        prob = torch.sigmoid(block)
-        prob[torch.arange(len(queried)), torch.tensor(queried)] = 0.0
+        slot = torch.where(ids_t >= 0, ids_t, torch.full_like(ids_t, num_objects))
+        present = torch.zeros(len(queried), num_objects + 1, dtype=torch.bool)
+        present.scatter_(1, slot, True)
+        prob = torch.where(present[:, :num_objects], torch.sigmoid(block), 0.0)
         return reach, prob

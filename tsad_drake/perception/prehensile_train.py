@@ -26,7 +26,9 @@ from tsad_drake.cli import UsageError
 from tsad_drake.perception import prehensile_data as pdata
 from tsad_drake.perception.prehensile_net import NetConfig, PrehensileNet, query_scores
 
-CHECKPOINT_FORMAT = "tsad-prehensile-net-v2"  #: v2: per-object block head (v1: per point)
+#: v3: 256 points, first-K ball query, in-corridor channel (v2: 512 points, per-object head;
+#: v1: per-point block vote)
+CHECKPOINT_FORMAT = "tsad-prehensile-net-v3"
 #: the shipped weights, produced by `tsad train` (see README: model card)
 DEFAULT_WEIGHTS = Path(__file__).resolve().parent.parent / "data" / "prehensile_net.pt"
 BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-object blocker loss against the reach loss
@@ -169,7 +171,7 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
     _, _, _, labels, present, _ = to_tensors(data, train_rows[:4000])
     positive = float(labels[present].mean()) if bool(present.any()) else 0.5
     pos_weight = float(np.clip((1 - positive) / max(positive, 1e-6), 1.0, 10.0) ** 0.5)
-    net = PrehensileNet(NetConfig(num_points=pdata.NUM_POINTS))
+    net = PrehensileNet(NetConfig(num_points=pdata.NUM_POINTS, in_features=pdata.NUM_FEATURES))
     opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=1e-4)
     steps_per_epoch = math.ceil(len(train_rows) / batch)
     total_steps = epochs * steps_per_epoch
@@ -347,8 +349,8 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
     reach_logits, block_probs = np.concatenate(reach_logits), np.concatenate(block_probs)
     true_pick = np.concatenate(true_pick)
     best = (-1.0, 0.0, 0.5)
-    for rt in np.linspace(-2.0, 4.0, 25):
-        for bt in np.linspace(0.2, 0.8, 13):
+    for rt in np.linspace(-2.0, 6.0, 33):
+        for bt in np.linspace(0.05, 0.8, 16):
             acc = float((((reach_logits > rt) & (block_probs <= bt)) == true_pick).mean())
             if acc > best[0] + 1e-9:
                 best = (acc, float(rt), float(bt))
