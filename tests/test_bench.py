@@ -2,7 +2,7 @@
 
 import json
 
-from tsad_drake.bench.runner import EpisodeSpec, run_bench
+from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec, run_bench
 
 
 def _specs(seeds):
@@ -34,3 +34,20 @@ def test_rerun_resumes_and_reruns_rows_of_another_scene(tmp_path):
     assert third["rows"][1]["num_actions"] != 99  # run again on the current scene
     assert third["rows"][1]["scene_digest"] == first["rows"][1]["scene_digest"]
     assert json.loads(out.read_text())["summary"]["episodes"] == 2
+
+
+def test_rows_of_other_network_weights_are_run_again(tmp_path):
+    """A `--feasibility net` row records the shipped weights' digest; resuming keeps the rows of
+    these weights and drops those of other weights (read back without running an episode)."""
+    from tsad_drake.bench.episodes import spec_scenario, weights_digest
+    from tsad_drake.bench.runner import _load_rows
+    from tsad_drake.scenario import scene_digest
+
+    specs = [EpisodeSpec(scenario="1", seed=s, planner="tsad", feasibility="net") for s in (0, 1)]
+    rows_path = tmp_path / "net.json.rows.jsonl"
+    rows = [{**dict(zip(SPEC_KEYS, spec.key())), "seed": spec.seed,
+             "scene_digest": scene_digest(spec_scenario(spec)), "weights_digest": digest}
+            for spec, digest in zip(specs, (weights_digest(), "000000000000"))]
+    rows_path.write_text("".join(json.dumps(r) + "\n" for r in rows))
+    assert len(weights_digest()) == 12
+    assert set(_load_rows(rows_path, specs)) == {0}

@@ -111,7 +111,19 @@ def run_named_episode(spec) -> dict:
                                closed_loop=spec.closed_loop, motion=spec.motion)
     row = run_settings(scenario, spec.seed, settings)
     row["scene_digest"] = scene_digest(scenario)
+    if spec.feasibility == "net":
+        row["weights_digest"] = weights_digest()
     return row
+
+
+def weights_digest() -> str:
+    """Short fingerprint of the shipped network weights: `--feasibility net` rows record it so a
+    resumed bench never mixes in rows planned with an older network."""
+    import hashlib
+
+    from tsad_drake.perception.prehensile_train import DEFAULT_WEIGHTS
+
+    return hashlib.sha1(DEFAULT_WEIGHTS.read_bytes()).hexdigest()[:12]
 
 
 def spec_scenario(spec) -> Scenario:

@@ -70,16 +70,17 @@ def machine_info() -> dict:
 
 def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     """Rows of `path` that belong to this run: same settings and, where a row records its scene's
-    digest, the same scene (a row from before a generator change is run again)."""
+    digest, the same scene (a row from before a generator change is run again), and where it
+    records the network weights' digest, the same weights (a row of an older network too)."""
     if not path.exists():
         return {}
-    from tsad_drake.bench.episodes import spec_scenario
+    from tsad_drake.bench.episodes import spec_scenario, weights_digest
     from tsad_drake.scenario import scene_digest
 
     by_seed = {s.seed: s for s in specs}
     wanted = specs[0].key()
     defaults = {f.name: f.default for f in dc.fields(EpisodeSpec)}  # keys added since a row
-    done = {}
+    done, current = {}, ""  # current: the shipped weights' digest, read when a row has one
     for line in path.read_text().splitlines():
         try:
             row = json.loads(line)
@@ -88,7 +89,11 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
         if (tuple(row.get(k, defaults.get(k)) for k in SPEC_KEYS) != wanted
                 or row.get("seed") not in by_seed):
             continue
-        digest = row.get("scene_digest")
+        digest, weights = row.get("scene_digest"), row.get("weights_digest")
+        if weights is not None:
+            current = current or weights_digest()
+            if weights != current:
+                continue
         if digest is None or digest == scene_digest(spec_scenario(by_seed[row["seed"]])):
             done[row["seed"]] = row
     return done
