@@ -130,6 +130,14 @@ def interpolate(xy: torch.Tensor, centres: torch.Tensor, values: torch.Tensor) -
     return (gather(values, near) * weight.unsqueeze(-1)).sum(2)
 
 
+def object_presence(ids: torch.Tensor, num_objects: int) -> torch.Tensor:
+    """(B, S) whether object s in [0, S) has a point among `ids` (B, N); negative ids belong to
+    no object."""
+    slot = torch.where(ids >= 0, ids, torch.full_like(ids, num_objects))
+    present = torch.zeros(ids.shape[0], num_objects + 1, dtype=torch.bool, device=ids.device)
+    return present.scatter_(1, slot, True)[:, :num_objects]
+
+
 def segment_max(values: torch.Tensor, ids: torch.Tensor, num_segments: int) -> torch.Tensor:
     """(B, S, C) max of `values` (B, N, C) over the points of each id in [0, S); points with a
     negative id are ignored; an id with no point gets zeros."""
@@ -189,8 +197,5 @@ def query_scores(net: PrehensileNet, xy, feats, ids, queried: list[int],
         mine = ids_t == torch.tensor(queried).unsqueeze(1)
         ids_t[mine] = -1
         reach, block = net(torch.from_numpy(xy), torch.from_numpy(feats), ids_t, num_objects)
-        slot = torch.where(ids_t >= 0, ids_t, torch.full_like(ids_t, num_objects))
-        present = torch.zeros(len(queried), num_objects + 1, dtype=torch.bool)
-        present.scatter_(1, slot, True)
-        prob = torch.where(present[:, :num_objects], torch.sigmoid(block), 0.0)
+        prob = torch.where(object_presence(ids_t, num_objects), torch.sigmoid(block), 0.0)
         return reach, prob

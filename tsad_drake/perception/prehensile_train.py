@@ -24,7 +24,12 @@ from torch import nn
 
 from tsad_drake.cli import UsageError
 from tsad_drake.perception import prehensile_data as pdata
-from tsad_drake.perception.prehensile_net import NetConfig, PrehensileNet, query_scores
+from tsad_drake.perception.prehensile_net import (
+    NetConfig,
+    PrehensileNet,
+    object_presence,
+    query_scores,
+)
 
 #: v3: 256 points, first-K ball query, in-corridor channel (v2: 512 points, per-object head;
 #: v1: per-point block vote)
@@ -93,11 +98,10 @@ def to_tensors(data: pdata.Samples, rows: np.ndarray) -> tuple[torch.Tensor, ...
     ids = torch.where(plabel < 0, torch.full_like(ids, -1), ids)
     num = int(ids.max()) + 1 if ids.numel() and int(ids.max()) >= 0 else 1
     slot = torch.where(ids >= 0, ids, torch.full_like(ids, num))
-    present = torch.zeros(len(rows), num + 1).scatter_add_(1, slot, torch.ones_like(slot, dtype=torch.float))
     positive = torch.zeros(len(rows), num + 1).scatter_add_(1, slot, (plabel == 1).float())
     return (torch.from_numpy(data.xy[rows].astype(np.float32)),
             torch.from_numpy(data.feats[rows].astype(np.float32)),
-            ids, (positive[:, :num] > 0).float(), present[:, :num] > 0,
+            ids, (positive[:, :num] > 0).float(), object_presence(ids, num),
             torch.from_numpy(data.reach[rows].astype(np.float32)))
 
 
