@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tsad_drake.planning.feasibility import approach_order, pickable_at
+from tsad_drake.planning.feasibility import approach_order
 from tsad_drake.planning.pointcloud_sim import placement_valid, simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
 
@@ -22,8 +22,9 @@ SAME_PLACE = 0.01
 def choose_theta_pick(feasibility: FeasibilityModel, state: PlanningState, index: int,
                       workspace: Workspace, prefer: float = 0.0) -> float | None:
     """An angle at which object `index` is pickable in `state` (nearest `prefer`), else None."""
+    ok = feasibility.pickable(state, index)
     for k in approach_order(workspace.approach_angles, prefer):
-        if pickable_at(feasibility, state, index, int(k)):
+        if ok[k]:
             return float(workspace.approach_angles[k])
     return None
 
@@ -43,7 +44,7 @@ def place_options(feasibility: FeasibilityModel, state: PlanningState, index: in
             if not placement_valid(state, index, x, y, rotation, workspace):
                 continue
             nxt = simulate_pick_place(state, Action(name, theta_pick, x, y, float(thetas[k])))
-            if pickable_at(feasibility, nxt, index, int(k)):
+            if feasibility.pickable(nxt, index)[k]:
                 result[c] = thetas[k]
                 break
     return result

@@ -111,12 +111,6 @@ def blockers_at(model: FeasibilityModel, state: PlanningState, index: int, k: in
     return one(state, index, k) if one is not None else model.blockers(state, index)[k]
 
 
-def pickable_at(model: FeasibilityModel, state: PlanningState, index: int, k: int) -> bool:
-    """Whether object `index` is pickable at angle k (one angle's answer, as `blockers_at`)."""
-    one = getattr(model, "pickable_at", None)
-    return bool(one(state, index, k) if one is not None else model.pickable(state, index)[k])
-
-
 def approach_order(thetas: np.ndarray, prefer: float) -> np.ndarray:
     """Indices of `thetas` sorted by distance to `prefer`, ties to the smaller |theta|."""
     return np.lexsort((np.abs(thetas), np.round(np.abs(thetas - prefer), 9)))

@@ -7,8 +7,9 @@ corridor misses the walls (`reach`) and, per object j, the probability that j li
 - blockers(state, i)[a]: R_{theta_a, s} for i (the smallest rearrangement set when i is the target);
 - pickable(state, i)[a]: reach and no blocker, so theta_pick = a pickable angle;
 - blockers_at(state, i, a): R for one angle, one query (what the planners read where they need
-  one angle only); pickable_at(state, i, a) runs the object's seven angles as one batch, since
-  `choose_theta_pick` walks them;
+  one angle only). Pickability has no one-angle form: `choose_theta_pick` walks about five of the
+  seven angles on average (profiled on scenario 1), and `pickable`'s batch of seven costs about
+  four single queries on one thread (two on two threads);
 - place_options(state, i, theta_pick): theta_place per grid cell. The point-cloud simulation
   proposes cells where i's perceived footprint fits (inside the shelf, clear of the others'
   footprints; the `geometric` model's placement test) with an angle; the network then decides on
@@ -145,14 +146,6 @@ class NetFeasibility:
         """R_{theta_k,s} for object `index`: one network query (cached)."""
         self.evaluate([(state, index, k)])
         return self._answers[state.key()][(index, k)][1]
-
-    def pickable_at(self, state: PlanningState, index: int, k: int) -> bool:
-        """Object `index` pickable at angle k. All angles of the object are evaluated in one batch
-        (cached): `choose_theta_pick` walks the angles until one is pickable, about five of them
-        on average (profiled on scenario 1), and a batch of seven costs about four single queries
-        on one thread (two on two threads)."""
-        self._object_answers(state, index)
-        return self._pickable_answer((state, index, k))
 
     def reachable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) the network says object `index` fits the stroke and its corridor misses the walls."""

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from tsad_drake.planning.feasibility import pickable_at
 from tsad_drake.planning.types import FeasibilityModel, PlanningState
 
 
@@ -31,11 +30,6 @@ class PickVeto:
         ok = ok.copy()
         ok[ruled_out] = False
         return ok
-
-    def pickable_at(self, state: PlanningState, index: int, k: int) -> bool:
-        if (state.objects[index].name, k) in self.vetoes:
-            return False
-        return pickable_at(self.base, state, index, k)
 
     def __getattr__(self, attribute: str):
         return getattr(self.base, attribute)  # blockers, reachable, place_options, ...
