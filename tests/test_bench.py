@@ -38,7 +38,8 @@ def test_rerun_resumes_and_reruns_rows_of_another_scene(tmp_path):
 
 def test_rows_of_other_network_weights_are_run_again(tmp_path):
     """A `--feasibility net` row records the shipped weights' digest; resuming keeps the rows of
-    these weights and drops those of other weights (read back without running an episode)."""
+    these weights and drops those of other weights or with no digest (read back without running
+    an episode)."""
     from tsad_drake.bench.episodes import spec_scenario, weights_digest
     from tsad_drake.bench.runner import _load_rows
     from tsad_drake.scenario import scene_digest
@@ -48,6 +49,9 @@ def test_rows_of_other_network_weights_are_run_again(tmp_path):
     rows = [{**dict(zip(SPEC_KEYS, spec.key())), "seed": spec.seed,
              "scene_digest": scene_digest(spec_scenario(spec)), "weights_digest": digest}
             for spec, digest in zip(specs, (weights_digest(), "000000000000"))]
+    undigested = {**rows[1], "weights_digest": None}  # a row from before rows recorded it
     rows_path.write_text("".join(json.dumps(r) + "\n" for r in rows))
     assert len(weights_digest()) == 12
+    assert set(_load_rows(rows_path, specs)) == {0}
+    rows_path.write_text("".join(json.dumps(r) + "\n" for r in (rows[0], undigested)))
     assert set(_load_rows(rows_path, specs)) == {0}

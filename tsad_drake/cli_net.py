@@ -29,8 +29,8 @@ def add_net_parsers(sub) -> None:
                            "simulation) and the re-observed true scene, and label every (object, "
                            "angle) with the oracle: fits/reach, pickable, blockers. Queries are "
                            "class-balanced per state. Writes shards of scenes to DIR; an "
-                           "interrupted run resumes where it stopped. Split by scene: seed % 10 == 8 "
-                           "validation, == 9 test."))
+                           "interrupted run resumes where it stopped. Split by scene: (seed // 4) % 10 "
+                           "== 8 validation, == 9 test (every scenario type in every split)."))
     p.add_argument("--scenes", type=int, required=True, help="number of scenes")
     p.add_argument("--seed-start", type=int, default=0, help="first scene seed (default 0)")
     p.add_argument("--out", required=True, help="dataset directory")

@@ -87,9 +87,12 @@ def test_encoding_is_deterministic():
         np.testing.assert_array_equal(x, y)
 
 
-def test_splits_are_by_scene():
-    assert [pdata.split_of(s) for s in (0, 7, 8, 9, 18, 19)] == [
-        "train", "train", "val", "test", "val", "test"]
+def test_splits_are_by_scene_and_hold_every_scenario_type():
+    assert [pdata.split_of(s) for s in (0, 31, 32, 35, 36, 39, 72, 79)] == [
+        "train", "train", "val", "val", "test", "test", "val", "test"]
+    for split in ("val", "test"):
+        types = {pdata.scenario_type(s) for s in range(400) if pdata.split_of(s) == split}
+        assert types == set(pdata.SCENARIO_TYPES)
 
 
 @pytest.mark.slow
@@ -101,9 +104,10 @@ def test_drake_rendered_scene_gives_labelled_samples():
 
 
 def test_encoding_keeps_every_object_that_reaches_into_the_corridor():
-    """Sampling to NUM_POINTS keeps the queried object's points and, for every object with a
-    point inside the approach corridor, at least one such point, flagged in-corridor; oracle
-    blockers are almost always among them (the rest are hidden from every view)."""
+    """Sampling to NUM_POINTS keeps the queried object's points (its outermost ones across the
+    approach among them) and, for every object with a point inside the approach corridor, at
+    least one such point, flagged in-corridor; oracle blockers are almost always among them (the
+    rest are hidden from every view)."""
     kept = total = 0
     for _, state, oracle in pdata.scene_states(SEED, relocations=1, reobserve=False):
         cloud = pdata.state_cloud(state, oracle.workspace)
@@ -122,6 +126,10 @@ def test_encoding_keeps_every_object_that_reaches_into_the_corridor():
                 flagged = set(ids[feats[:, 3] > 0].tolist()) - {i}
                 assert flagged == reaching
                 assert (ids == i).sum() >= min((cloud.ids == i).sum(), pdata.MAX_QUERY_POINTS)
+                # the queried object's extent across the approach (its fit in the stroke) is kept
+                mine = xy[ids == i, 1] * pdata.COORD_SCALE
+                assert np.isclose(mine.max(), ry[cloud.ids == i].max(), atol=1e-3)
+                assert np.isclose(mine.min(), ry[cloud.ids == i].min(), atol=1e-3)
                 kept += len(set(labels.blockers[i][k]) & flagged)
                 total += len(labels.blockers[i][k])
     assert total > 0 and kept >= 0.95 * total

@@ -127,3 +127,29 @@ def test_make_feasibility_builds_the_net_model(states):
     _, _, oracle = states[0]
     model = make_feasibility("net", oracle.scenario, oracle.workspace)
     assert isinstance(model, NetFeasibility) and model.name == "net"
+
+
+def test_a_query_whose_window_did_not_change_reuses_its_answer(weights, states):
+    """After a relocation, every query whose encoded input is bit for bit the parent state's is
+    answered without a forward pass, and all answers equal a fresh model's."""
+    _, state, oracle = states[0]
+    ws = oracle.workspace
+    moved = pdata.random_relocation(state, oracle, np.random.default_rng(5))
+    assert moved is not None
+    model = NetFeasibility(ws, weights)
+    model.evaluate_all(state)
+    before = model.evaluations
+    model.evaluate_all(moved)
+    n, a = len(moved.objects), len(ws.approach_angles)
+    thetas = ws.approach_angles
+    old, new = pdata.state_cloud(state, ws), pdata.state_cloud(moved, ws)
+    same = sum(all(np.array_equal(p, q) for p, q in zip(pdata.encode_query(old, i, float(thetas[k]), k),
+                                                          pdata.encode_query(new, i, float(thetas[k]), k)))
+               for i in range(n) for k in range(a))
+    assert 0 < same < n * a
+    assert model.reused_inputs == same
+    assert model.evaluations - before == n * a - same
+    fresh = NetFeasibility(ws, weights)
+    for i in range(n):
+        assert model.blockers(moved, i) == fresh.blockers(moved, i)
+        np.testing.assert_array_equal(model.reachable(moved, i), fresh.reachable(moved, i))

@@ -185,3 +185,36 @@ def test_plan_check_accepts_the_plan_and_rejects_a_cut_or_broken_one(scenes, pla
         after = simulate_pick_place(after, action)
     assert plan_still_valid(after, plan.actions[len(first):], plan.theta_star, feasibility,
                             workspace)
+
+
+@pytest.mark.parametrize("model_name", ["oracle", "geometric"])
+def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(scenes, model_name):
+    from tsad_drake.planning.actions import UntriedActions, object_actions
+
+    scenario, workspace, state = scenes[("1", 0)]
+    model = make_feasibility(model_name, scenario, workspace)
+    movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
+    cells = range(len(workspace.cell_centres))
+    candidates = [(i, c) for i in movable for c in cells]
+    order = np.random.default_rng(0).permutation(len(candidates))
+    candidates = [candidates[j] for j in order]
+    eager = {}
+    for i in movable:
+        for a in object_actions(model, state, i, workspace):
+            eager[(a.object, a.x, a.y)] = a
+    assert eager, "the scene has feasible actions"
+    expected = []  # the eager list filtered in the candidates' drawing order (from the end)
+    for i, c in reversed(candidates):
+        x, y = workspace.cell_centres[c]
+        key = (state.objects[i].name, float(x), float(y))
+        if key in eager:
+            expected.append(eager[key])
+    untried = UntriedActions(model, state, workspace, list(candidates))
+    drawn = []
+    while (action := untried.pop()) is not None:
+        drawn.append(action)
+    assert drawn == expected
+    again = UntriedActions(model, state, workspace, list(candidates))
+    first = again.peek()
+    again.discard(first.object, first.x, first.y)
+    assert again.pop() == expected[1]

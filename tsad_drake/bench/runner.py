@@ -70,8 +70,9 @@ def machine_info() -> dict:
 
 def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     """Rows of `path` that belong to this run: same settings and, where a row records its scene's
-    digest, the same scene (a row from before a generator change is run again), and where it
-    records the network weights' digest, the same weights (a row of an older network too)."""
+    digest, the same scene (a row from before a generator change is run again); a network row
+    must record the shipped weights' digest (a row of other weights, or from before rows recorded
+    it, is run again)."""
     if not path.exists():
         return {}
     from tsad_drake.bench.episodes import spec_scenario, weights_digest
@@ -90,7 +91,7 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
                 or row.get("seed") not in by_seed):
             continue
         digest, weights = row.get("scene_digest"), row.get("weights_digest")
-        if weights is not None:
+        if weights is not None or row.get("feasibility") == "net":
             current = current or weights_digest()
             if weights != current:
                 continue

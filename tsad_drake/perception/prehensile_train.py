@@ -31,9 +31,10 @@ from tsad_drake.perception.prehensile_net import (
     query_scores,
 )
 
-#: v3: 256 points, first-K ball query, in-corridor channel (v2: 512 points, per-object head;
+#: v4: reach and block heads read the queried object's and the walls' pooled point embeddings
+#: (v3: 256 points, first-K ball query, in-corridor channel; v2: 512 points, per-object head;
 #: v1: per-point block vote)
-CHECKPOINT_FORMAT = "tsad-prehensile-net-v3"
+CHECKPOINT_FORMAT = "tsad-prehensile-net-v4"
 #: the shipped weights, produced by `tsad train` (see README: model card)
 DEFAULT_WEIGHTS = Path(__file__).resolve().parent.parent / "data" / "prehensile_net.pt"
 BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-object blocker loss against the reach loss
@@ -46,7 +47,7 @@ class WeightsError(UsageError):
 def encoding_signature() -> dict:
     """The input-encoding constants a checkpoint must agree with."""
     return {name: getattr(pdata, name) for name in (
-        "NUM_POINTS", "MAX_QUERY_POINTS", "GRID", "COORD_SCALE", "HEIGHT_SCALE", "CROP_BACK",
+        "NUM_POINTS", "MAX_QUERY_POINTS", "QUERY_EDGE_POINTS", "GRID", "WALL_GRID", "COORD_SCALE", "HEIGHT_SCALE", "CROP_BACK",
         "CROP_FRONT", "CROP_HALF_WIDTH", "NUM_FEATURES")}
 
 
@@ -171,7 +172,7 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
         val_rows = np.sort(rng.choice(val_rows, max_val_samples, replace=False))
     if len(train_rows) == 0 or len(val_rows) == 0:
         raise ValueError(f"dataset {data_dir} needs scenes in the train and validation splits "
-                         "(seeds with seed % 10 == 8 are validation): generate more scenes")
+                         "(seeds with (seed // 4) % 10 == 8 are validation): generate more scenes")
     _, _, _, labels, present, _ = to_tensors(data, train_rows[:4000])
     positive = float(labels[present].mean()) if bool(present.any()) else 0.5
     pos_weight = float(np.clip((1 - positive) / max(positive, 1e-6), 1.0, 10.0) ** 0.5)

@@ -67,12 +67,78 @@ def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: i
     return actions
 
 
-def legal_actions(feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,
-                  prefer: float = 0.0, movable: list[int] | None = None) -> list[Action]:
-    """All feasible actions {n, x, y} in `state` (the target is never relocated)."""
-    if movable is None:
-        movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
-    return [a for i in movable for a in object_actions(feasibility, state, i, workspace, prefer)]
+def place_option(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                 theta_pick: float, cell: int, workspace: Workspace) -> float | None:
+    """theta_place for moving object `index` (picked at theta_pick) to grid cell `cell`, or None.
+
+    A model with `first_place_option` (the network) answers this one cell; the others answer all
+    cells at once (memoised per state) and this reads one of them."""
+    first = getattr(feasibility, "first_place_option", None)
+    if first is not None:
+        found = first(state, index, theta_pick, [cell])
+        return None if found is None else found[1]
+    theta = place_options(feasibility, state, index, theta_pick, workspace)[cell]
+    return None if np.isnan(theta) else float(theta)
+
+
+class UntriedActions:
+    """A search node's untried actions {n, x, y}: candidates checked when drawn.
+
+    Candidates are (object index, cell) pairs in the caller's order, drawn from the end. A drawn
+    candidate becomes an action when the object is pickable (theta_pick, nearest `prefer`), the
+    cell is not its current place and the placement is feasible (theta_place); otherwise it is
+    dropped and the next one is drawn. Enumerating every feasible action up front costs a
+    pickability answer per object and a placement answer per cell (with the network, a forward
+    pass each) while progressive widening expands only a few children of most nodes; drawn
+    lazily, the feasible actions come out in the same order as a filtered eager list.
+    """
+
+    def __init__(self, feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,
+                 candidates: list[tuple[int, int]], prefer: float = 0.0) -> None:
+        self.feasibility, self.state, self.workspace, self.prefer = (
+            feasibility, state, workspace, prefer)
+        self._candidates = candidates
+        self._next: Action | None = None
+        self._theta_pick: dict[int, float | None] = {}
+
+    def check(self, index: int, cell: int) -> Action | None:
+        """The action moving object `index` to cell `cell`, or None when it is infeasible."""
+        if index not in self._theta_pick:
+            self._theta_pick[index] = choose_theta_pick(self.feasibility, self.state, index,
+                                                        self.workspace, self.prefer)
+        theta_pick = self._theta_pick[index]
+        if theta_pick is None:
+            return None
+        obj = self.state.objects[index]
+        x, y = self.workspace.cell_centres[cell]
+        if np.hypot(x - obj.x, y - obj.y) < SAME_PLACE:
+            return None
+        theta_place = place_option(self.feasibility, self.state, index, theta_pick, cell,
+                                   self.workspace)
+        if theta_place is None:
+            return None
+        return Action(obj.name, theta_pick, float(x), float(y), theta_place)
+
+    def peek(self) -> Action | None:
+        """The next feasible action (drawn, not yet taken), or None when none is left."""
+        while self._next is None and self._candidates:
+            self._next = self.check(*self._candidates.pop())
+        return self._next
+
+    def pop(self) -> Action | None:
+        """Take the next feasible action (None when none is left)."""
+        action = self.peek()
+        self._next = None
+        return action
+
+    def discard(self, name: str, x: float, y: float) -> None:
+        """Drop the move of object `name` to (x, y) (it was tried another way)."""
+        if self._next is not None and (self._next.object, self._next.x, self._next.y) == (name, x, y):
+            self._next = None
+        cells = self.workspace.cell_centres
+        self._candidates = [(i, c) for i, c in self._candidates
+                            if not (self.state.objects[i].name == name
+                                    and (float(cells[c, 0]), float(cells[c, 1])) == (x, y))]
 
 
 def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,

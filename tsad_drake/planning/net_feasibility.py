@@ -16,12 +16,17 @@ corridor misses the walls (`reach`) and, per object j, the probability that j li
   the next state s' whether i is pickable there at that angle (the paper's theta_place from s').
 
 Queries are encoded and run in batches; answers are cached per state key (states are immutable),
-so a repeated query inside a search costs a dictionary lookup. `evaluations` counts forward passes
-per query (network evaluations) for throughput reports.
+so a repeated query inside a search costs a dictionary lookup. Answers are also cached by the
+encoded input itself: a query sees only the points in its crop window, so in a state where the
+search moved an object outside that window (before and after the move) the input is bit for bit
+the one of the parent state, and its answer is reused without a forward pass (exact, not an
+approximation). `evaluations` counts forward passes (network evaluations) for throughput
+reports, `reused_inputs` the queries answered from an identical input.
 """
 
 from __future__ import annotations
 
+import hashlib
 import time
 from pathlib import Path
 
@@ -83,7 +88,10 @@ class NetFeasibility:
         self._answers: dict[tuple, dict[tuple[int, int], tuple[bool, frozenset[int]]]] = {}
         self._clouds: dict[tuple, pdata.StateCloud] = {}
         self._place_memo: dict[tuple, np.ndarray] = {}
+        #: digest of an encoded input -> its answer (reach, blockers)
+        self._by_input: dict[bytes, tuple[bool, frozenset[int]]] = {}
         self.evaluations = 0  #: network queries run (cache misses)
+        self.reused_inputs = 0  #: queries answered from an identical encoded input
         self.network_seconds = 0.0  #: wall time spent encoding and running them
 
     # -- batched core --------------------------------------------------------------------------
@@ -100,6 +108,7 @@ class NetFeasibility:
             self._answers.clear()
             self._clouds.clear()
             self._place_memo.clear()
+            self._by_input.clear()
         todo, seen = [], set()
         for state, i, k in requests:
             key = state.key()
@@ -111,19 +120,30 @@ class NetFeasibility:
             return
         start = time.perf_counter()
         thetas = self.workspace.approach_angles
-        for first in range(0, len(todo), self.batch_size):
-            chunk = todo[first:first + self.batch_size]
-            encoded = [pdata.encode_query(self._cloud(s), i, float(thetas[k]), k) for s, i, k in chunk]
-            xy, feats, ids = (np.stack(p) for p in zip(*encoded))
-            num = max(len(s.objects) for s, _, _ in chunk)
-            reach, prob = query_scores(self.net, xy, feats, ids, [i for _, i, _ in chunk], num)
+        run: dict[bytes, tuple] = {}  # new inputs: digest -> (request, encoded input)
+        digests = []
+        for s, i, k in todo:
+            encoded = pdata.encode_query(self._cloud(s), i, float(thetas[k]), k)
+            digest = hashlib.blake2b(b"".join(a.tobytes() for a in encoded), digest_size=16).digest()
+            digests.append(digest)
+            if digest not in self._by_input and digest not in run:
+                run[digest] = ((s, i, k), encoded)
+        items = list(run.items())
+        for first in range(0, len(items), self.batch_size):
+            chunk = items[first:first + self.batch_size]
+            xy, feats, ids = (np.stack(p) for p in zip(*(enc for _, (_, enc) in chunk)))
+            num = max(len(s.objects) for _, ((s, _, _), _) in chunk)
+            reach, prob = query_scores(self.net, xy, feats, ids, [i for _, ((_, i, _), _) in chunk],
+                                       num)
             prob = prob.numpy()
-            for row, (s, i, k) in enumerate(chunk):
+            for row, (digest, ((s, i, _), _)) in enumerate(chunk):
                 blockers = blocker_set(prob[row, :len(s.objects)], i, self.block_threshold,
                                        self.set_threshold)
-                self._answers.setdefault(s.key(), {})[(i, k)] = (
-                    bool(reach[row] > self.reach_threshold), blockers)
-        self.evaluations += len(todo)
+                self._by_input[digest] = (bool(reach[row] > self.reach_threshold), blockers)
+        for (s, i, k), digest in zip(todo, digests):
+            self._answers.setdefault(s.key(), {})[(i, k)] = self._by_input[digest]
+        self.evaluations += len(run)
+        self.reused_inputs += len(todo) - len(run)
         self.network_seconds += time.perf_counter() - start
 
     def _object_answers(self, state: PlanningState, index: int) -> list[tuple[bool, frozenset[int]]]:

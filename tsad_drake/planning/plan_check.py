@@ -23,9 +23,14 @@ from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
 
 
-def action_key(action: Action) -> tuple[str, float, float]:
+def relocation_key(name: str, x: float, y: float) -> tuple[str, float, float]:
     """What identifies a relocation for exclusion: the object and its placement cell."""
-    return (action.object, round(action.x, 4), round(action.y, 4))
+    return (name, round(float(x), 4), round(float(y), 4))
+
+
+def action_key(action: Action) -> tuple[str, float, float]:
+    """`relocation_key` of an action."""
+    return relocation_key(action.object, action.x, action.y)
 
 
 def rearrangement_set(state: PlanningState, feasibility: FeasibilityModel, k: int) -> frozenset[str]:

@@ -25,9 +25,9 @@ from collections.abc import Callable
 
 import numpy as np
 
-from tsad_drake.planning.actions import choose_theta_pick, legal_actions, random_action
+from tsad_drake.planning.actions import UntriedActions, choose_theta_pick, random_action
 from tsad_drake.planning.feasibility import angle_index, blockers_at
-from tsad_drake.planning.plan_check import action_key, rearrangement_set, shorten_plan
+from tsad_drake.planning.plan_check import rearrangement_set, relocation_key, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
@@ -181,7 +181,7 @@ class Node:
     value: float  #: V(s)
     visits: int = 0
     children: list[Node] = dc.field(default_factory=list)
-    untried: list[Action] | None = None  #: lazily enumerated, shuffled feasible actions
+    untried: UntriedActions | None = None  #: shuffled candidate actions, checked when drawn
     has_terminal: bool = False  #: a terminal state lies in this subtree
     rollout_value: float = -math.inf  #: best value a rollout from here reached
 
@@ -238,21 +238,36 @@ class SubSearch:
         related.discard(state.target_index)
         return sorted(related)
 
-    def actions(self, node: Node) -> list[Action]:
+    def actions(self, node: Node) -> UntriedActions:
+        """The node's untried actions: (movable object, cell) pairs in a random order, the
+        relevant objects' last (they are drawn from the end), each checked when drawn.
+
+        A model that answers every cell of an object at once (the footprint models) has its
+        infeasible pairs dropped before shuffling, so the order is a permutation of the feasible
+        actions as before lazy drawing; for the network every pair is shuffled and checked only
+        when drawn (one query per drawn placement instead of one per feasible cell and object).
+        """
         if node.untried is None:
-            acts = legal_actions(self.feasibility, node.state, self.workspace, self.theta)
+            state, cells = node.state, self.workspace.cell_centres
+            candidates = [(i, c) for i, o in enumerate(state.objects) if o.name != state.target
+                          for c in range(len(cells))]
+            if getattr(self.feasibility, "first_place_option", None) is None:
+                probe = UntriedActions(self.feasibility, state, self.workspace, [], self.theta)
+                candidates = [ic for ic in candidates if probe.check(*ic) is not None]
             if node.parent is None and self.excluded:
-                acts = [a for a in acts if action_key(a) not in self.excluded]
-            acts = [acts[i] for i in self.rng.permutation(len(acts))]
+                candidates = [(i, c) for i, c in candidates
+                              if relocation_key(state.objects[i].name, *cells[c])
+                              not in self.excluded]
+            candidates = [candidates[j] for j in self.rng.permutation(len(candidates))]
             if self.config.rollout_bias > 0:
-                # untried actions are popped from the end: relevant objects' actions come first
-                names = {node.state.objects[i].name for i in self.relevant(node.state)}
-                acts.sort(key=lambda a: a.object in names)
-            node.untried = acts
+                relevant = set(self.relevant(state))
+                candidates.sort(key=lambda ic: ic[0] in relevant)
+            node.untried = UntriedActions(self.feasibility, state, self.workspace, candidates,
+                                          self.theta)
         return node.untried
 
     def can_expand(self, node: Node) -> bool:
-        if not self.actions(node):
+        if self.actions(node).peek() is None:
             return False
         w = self.config.widening
         return w is None or len(node.children) < max(1.0, w * math.sqrt(node.visits))
@@ -298,9 +313,8 @@ class SubSearch:
         for action, state in path:
             child = self.make_node(state, action, node)
             node.children.append(child)
-            if node.untried:
-                node.untried = [a for a in node.untried if (a.object, a.x, a.y) !=
-                                (action.object, action.x, action.y)]
+            if node.untried is not None:
+                node.untried.discard(action.object, action.x, action.y)
             added.append(child)
             node = child
         self.nodes += len(added)
@@ -348,7 +362,7 @@ class SubSearch:
             if self.iterations >= cfg.iterations and self.root.has_terminal:
                 break
             self.iterate()
-            if not self.root.children and not self.actions(self.root):
+            if not self.root.children and self.actions(self.root).peek() is None:
                 break  # nothing can be moved at all
         return self.extract()
 
