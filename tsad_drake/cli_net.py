@@ -59,8 +59,9 @@ def add_net_parsers(sub) -> None:
     p = sub.add_parser("net-calibrate", help="re-tune a weights file's decision thresholds",
                        description=(
                            "Choose the network's decision thresholds on fresh scenes (seeds from "
-                           "200000, never used for training or net-eval): reach and collision for "
-                           "the best pickable accuracy, then the set threshold for the most exact "
+                           "200000, never used for training or net-eval): reach for the best reach "
+                           "accuracy, collision for the best pickable accuracy, then the set "
+                           "threshold for the most exact "
                            "blocker sets R_{theta,s}; written into the weights file's meta. "
                            "`tsad train` ends with the same step."))
     p.add_argument("--weights", required=True, help="weights file to update in place (.pt)")
