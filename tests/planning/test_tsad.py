@@ -189,7 +189,13 @@ def test_plan_check_accepts_the_plan_and_rejects_a_cut_or_broken_one(scenes, pla
 
 @pytest.mark.parametrize("model_name", ["oracle", "geometric"])
 def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(scenes, model_name):
-    from tsad_drake.planning.actions import UntriedActions, object_actions
+    from tsad_drake.planning.actions import (
+        SAME_PLACE,
+        UntriedActions,
+        choose_theta_pick,
+        place_options,
+    )
+    from tsad_drake.planning.types import Action
 
     scenario, workspace, state = scenes[("1", 0)]
     model = make_feasibility(model_name, scenario, workspace)
@@ -198,10 +204,17 @@ def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(sc
     candidates = [(i, c) for i in movable for c in cells]
     order = np.random.default_rng(0).permutation(len(candidates))
     candidates = [candidates[j] for j in order]
-    eager = {}
+    eager = {}  # enumerated independently: theta_pick, then every cell from place_options
     for i in movable:
-        for a in object_actions(model, state, i, workspace):
-            eager[(a.object, a.x, a.y)] = a
+        theta_pick = choose_theta_pick(model, state, i, workspace)
+        if theta_pick is None:
+            continue
+        obj = state.objects[i]
+        options = place_options(model, state, i, theta_pick, workspace)
+        for c in np.nonzero(np.isfinite(options))[0]:
+            x, y = (float(v) for v in workspace.cell_centres[c])
+            if np.hypot(x - obj.x, y - obj.y) >= SAME_PLACE:
+                eager[(obj.name, x, y)] = Action(obj.name, theta_pick, x, y, float(options[c]))
     assert eager, "the scene has feasible actions"
     expected = []  # the eager list filtered in the candidates' drawing order (from the end)
     for i, c in reversed(candidates):

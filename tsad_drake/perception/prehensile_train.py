@@ -47,8 +47,8 @@ class WeightsError(UsageError):
 def encoding_signature() -> dict:
     """The input-encoding constants a checkpoint must agree with."""
     return {name: getattr(pdata, name) for name in (
-        "NUM_POINTS", "MAX_QUERY_POINTS", "QUERY_EDGE_POINTS", "GRID", "WALL_GRID", "COORD_SCALE", "HEIGHT_SCALE", "CROP_BACK",
-        "CROP_FRONT", "CROP_HALF_WIDTH", "NUM_FEATURES")}
+        "NUM_POINTS", "MAX_QUERY_POINTS", "QUERY_EDGE_POINTS", "GRID", "WALL_GRID", "COORD_SCALE",
+        "HEIGHT_SCALE", "CROP_BACK", "CROP_FRONT", "CROP_HALF_WIDTH", "NUM_FEATURES")}
 
 
 def save_checkpoint(net: PrehensileNet, path: Path, meta: dict) -> None:
@@ -359,9 +359,11 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
     # strict 4.5 (pickable hardly notices, most of those objects are blocked anyway), which
     # called 174 fitting (object, angle) pairs of 48 fresh scenes "does not fit" (logit 1: 3),
     # once every angle of a target (an episode over at once); then the block threshold
-    reach_acc, rt = max((float(((reach_logits > rt) == true_reach).mean()), -float(rt))
-                        for rt in np.linspace(-2.0, 6.0, 33))
-    rt = -rt
+    reach_acc, rt = -1.0, 0.0
+    for threshold in np.linspace(-2.0, 6.0, 33):  # ascending: ties keep the lower threshold
+        acc = float(((reach_logits > threshold) == true_reach).mean())
+        if acc > reach_acc + 1e-9:
+            reach_acc, rt = acc, float(threshold)
     best = (-1.0, rt, 0.5)
     for bt in np.linspace(0.05, 0.8, 16):
         acc = float((((reach_logits > rt) & (block_probs <= bt)) == true_pick).mean())

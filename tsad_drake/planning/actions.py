@@ -52,19 +52,10 @@ def place_options(feasibility: FeasibilityModel, state: PlanningState, index: in
 
 def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: int,
                    workspace: Workspace, prefer: float = 0.0) -> list[Action]:
-    """Every feasible pick-and-place of object `index` to a grid cell (cell order)."""
-    theta_pick = choose_theta_pick(feasibility, state, index, workspace, prefer)
-    if theta_pick is None:
-        return []
-    obj = state.objects[index]
-    options = place_options(feasibility, state, index, theta_pick, workspace)
-    actions = []
-    for c in np.nonzero(np.isfinite(options))[0]:
-        x, y = workspace.cell_centres[c]
-        if np.hypot(x - obj.x, y - obj.y) < SAME_PLACE:
-            continue
-        actions.append(Action(obj.name, theta_pick, float(x), float(y), float(options[c])))
-    return actions
+    """Every feasible pick-and-place of object `index` to a grid cell (cell order): the cells
+    `UntriedActions.check` accepts."""
+    check = UntriedActions(feasibility, state, workspace, [], prefer).check
+    return [a for c in range(len(workspace.cell_centres)) if (a := check(index, c)) is not None]
 
 
 def place_option(feasibility: FeasibilityModel, state: PlanningState, index: int,
