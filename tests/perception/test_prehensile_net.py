@@ -10,6 +10,7 @@ from tsad_drake.perception.prehensile_net import (
     ball_query,
     farthest_point_sampling,
     segment_max,
+    squared_distances,
 )
 
 
@@ -31,6 +32,22 @@ def test_farthest_point_sampling_spreads_points():
         d = torch.cdist(xy[b], chosen).min(dim=1).values
         gaps = torch.cdist(chosen, chosen) + torch.eye(16) * 10
         assert gaps.min() >= d.max() - 1e-6
+
+
+def test_farthest_point_sampling_matches_plain_greedy_loop_with_ties():
+    # points on a coarse grid (as the encoder flattens them): many equal distances, ties must go
+    # to the lowest index in every batch row
+    xy = (torch.rand(3, 120, 2) * 10).round() / 10
+    idx = farthest_point_sampling(xy, 24)
+    pair = squared_distances(xy, xy)  # the same float32 distances the sampler reads
+    for b in range(3):
+        chosen = [0]
+        dist = pair[b, 0].tolist()
+        for _ in range(23):
+            best = max(range(len(dist)), key=lambda i: (dist[i], -i))
+            chosen.append(best)
+            dist = [min(d, e) for d, e in zip(dist, pair[b, best].tolist(), strict=True)]
+        assert idx[b].tolist() == chosen
 
 
 def test_ball_query_stays_in_radius_and_pads_with_first():

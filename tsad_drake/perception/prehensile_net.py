@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 
+import numpy as np
 import torch
 from torch import nn
 
@@ -58,17 +59,25 @@ class NetConfig:
 
 
 def farthest_point_sampling(xy: torch.Tensor, count: int) -> torch.Tensor:
-    """(B, count) indices of farthest point sampling of `xy` (B, N, D), starting at point 0."""
+    """(B, count) indices of farthest point sampling of `xy` (B, N, D), starting at point 0.
+
+    The loop runs in NumPy on the (B, N, N) distance matrix: FPS is `count` sequential steps of
+    a few tiny operations, where torch's per-operation overhead made it 40% of a batch-1 forward
+    pass (NumPy: 5x faster at batch 1, 2x at 64). Ties go to the lowest index, as argmax does in
+    both libraries; the indices carry no gradient.
+    """
     b, n, _ = xy.shape
-    pair = squared_distances(xy, xy)  # (B, N, N) once, then only gathers in the loop
-    idx = torch.zeros(b, count, dtype=torch.long, device=xy.device)
-    dist = torch.full((b, n), float("inf"), device=xy.device)
-    farthest = torch.zeros(b, 1, 1, dtype=torch.long, device=xy.device)
+    with torch.no_grad():
+        pair = squared_distances(xy, xy).cpu().numpy().reshape(b * n, n)
+    rows = np.arange(b) * n
+    idx = np.zeros((count, b), dtype=np.int64)
+    dist = np.full((b, n), np.inf, dtype=pair.dtype)
+    farthest = np.zeros(b, dtype=np.int64)
     for k in range(count):
-        idx[:, k] = farthest[:, 0, 0]
-        dist = torch.minimum(dist, torch.gather(pair, 1, farthest.expand(-1, 1, n)).squeeze(1))
-        farthest = dist.argmax(-1).view(b, 1, 1)
-    return idx
+        idx[k] = farthest
+        np.minimum(dist, pair.take(rows + farthest, axis=0), out=dist)
+        farthest = dist.argmax(axis=1)
+    return torch.from_numpy(np.ascontiguousarray(idx.T)).to(xy.device)
 
 
 def squared_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:

@@ -55,7 +55,8 @@ class ObjectGeometry:
         edges = np.roll(self.polygon, -1, axis=0) - self.polygon
         lengths = np.linalg.norm(edges, axis=1)
         keep = lengths > 1e-12
-        cross = edges[keep, 0] * rel[keep, 1] - edges[keep, 1] * rel[keep, 0]
+        # distance of the centre to the left of each counter-clockwise edge: cross(edge, c - p)
+        cross = edges[keep, 1] * rel[keep, 0] - edges[keep, 0] * rel[keep, 1]
         self.inner = float(max(0.0, (cross / lengths[keep]).min())) if keep.any() else 0.0
 
 
