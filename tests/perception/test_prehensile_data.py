@@ -133,3 +133,28 @@ def test_encoding_keeps_every_object_that_reaches_into_the_corridor():
                 kept += len(set(labels.blockers[i][k]) & flagged)
                 total += len(labels.blockers[i][k])
     assert total > 0 and kept >= 0.95 * total
+
+
+def test_hull_flag_marks_the_objects_whose_completed_footprint_meets_the_corridor():
+    """Feature 4 is set on exactly the points of the objects the geometric model (hull of the
+    centrally completed points) puts in the corridor, on none of the walls' or the query's."""
+    from tsad_drake.planning.feasibility import GeometricFeasibility
+
+    for _, state, oracle in pdata.scene_states(SEED, relocations=1, reobserve=False):
+        geometric = GeometricFeasibility(oracle.workspace)
+        cloud = pdata.state_cloud(state, oracle.workspace)
+        for i in range(len(state.objects)):
+            blockers = geometric.blockers(state, i)
+            for k, theta in enumerate(oracle.workspace.approach_angles):
+                _, feats, ids = pdata.encode_query(cloud, i, float(theta), k)
+                flagged = feats[:, 4] > 0
+                assert set(ids[flagged].tolist()) == set(blockers[k]) & set(ids.tolist())
+                assert not flagged[ids < 0].any() and not flagged[ids == i].any()
+                on = np.isin(ids, list(blockers[k]))
+                assert flagged[on].all()
+                # feature 5: the queried object's hull fits the stroke, as the geometric model's
+                # reach says where its corridor also misses the walls
+                fits = feats[ids == i, 5]
+                assert len(set(fits.tolist())) == 1 and not feats[ids != i, 5].any()
+                if geometric.reachable(state, i)[k]:
+                    assert fits[0] == 1

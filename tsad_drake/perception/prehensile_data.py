@@ -31,7 +31,15 @@ from pathlib import Path
 
 import numpy as np
 
-from tsad_drake.geometry2d import rotation2d, side_wall_polygons
+from tsad_drake.geometry2d import (
+    approach_corridor,
+    convex_polygons_overlap_pairs,
+    pad_polygons,
+    rotation2d,
+    side_wall_polygons,
+)
+from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, polygon_widths
+from tsad_drake.planning.pointcloud_sim import perceived_hull
 from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspace
 
 NUM_POINTS = 256  #: points per query
@@ -48,7 +56,11 @@ HEIGHT_SCALE = 0.2  #: m, heights are divided by this
 CROP_BACK, CROP_FRONT, CROP_HALF_WIDTH = -0.60, 0.20, 0.22
 WALL_ID = -2  #: object index of wall points
 SCENARIO_TYPES = ("1", "2", "3", "real")
-NUM_FEATURES = 4  #: height, is-query, is-wall, in-corridor
+#: height, is-query, is-wall, in-corridor (the point), hull-in-corridor (its object's footprint hull:
+#: the perceived points completed by reflection through the object's centre, as the geometric
+#: model sees it; the hidden back of an object can reach into the corridor), hull-fits (on the
+#: queried object's points: its hull's width across the approach fits the stroke)
+NUM_FEATURES = 6
 SAMPLE_SEED = 1234  #: base seed of the per-query point sampling (deterministic inputs)
 SPLITS = ("train", "val", "test")
 
@@ -84,7 +96,9 @@ class StateCloud:
     z: np.ndarray
     ids: np.ndarray
     centres: np.ndarray  #: (N, 2) estimated object centres
+    hulls: np.ndarray  #: (N, K, 2) padded footprint hulls (`pointcloud_sim.perceived_hull`)
     half_width: float  #: m, the open gripper's swept half width (the corridor)
+    max_width: float  #: m, widest object the fingers take (stroke minus grasp margin)
     finger_reach: float  #: m, fingertip sweep past the grasp centre (the corridor's far end)
 
 
@@ -131,7 +145,20 @@ def state_cloud(state: PlanningState, workspace: Workspace) -> StateCloud:
     ids = [np.full(len(p[1]), k) for k, p in enumerate(parts)] + [np.full(len(walls), WALL_ID)]
     return StateCloud(np.concatenate(xy), np.concatenate(z), np.concatenate(ids),
                       np.array([[o.x, o.y] for o in state.objects]).reshape(-1, 2),
-                      workspace.swept_half_width, workspace.finger_reach)
+                      pad_polygons([perceived_hull(o) for o in state.objects]),
+                      workspace.swept_half_width, workspace.stroke - workspace.grasp_margin,
+                      workspace.finger_reach)
+
+
+def hull_hits(cloud: StateCloud, index: int, theta: float) -> np.ndarray:
+    """(N,) whether each object's footprint hull meets the approach corridor to object `index`
+    at `theta` (False for `index` itself)."""
+    corridor = approach_corridor(*cloud.centres[index], theta, cloud.half_width,
+                                 cloud.finger_reach, CORRIDOR_OUTSIDE)
+    hits = convex_polygons_overlap_pairs(np.broadcast_to(corridor, (len(cloud.hulls), 4, 2)),
+                                         cloud.hulls)
+    hits[index] = False
+    return hits
 
 
 def encode_query(cloud: StateCloud, index: int, theta: float,
@@ -172,8 +199,11 @@ def encode_query(cloud: StateCloud, index: int, theta: float,
     if len(chosen) < NUM_POINTS:  # pad by repeating points (max pooling ignores repeats)
         chosen = np.concatenate([chosen, rng.choice(chosen, NUM_POINTS - len(chosen))])
     ids = cloud.ids[chosen]
+    hull_flag = np.append(hull_hits(cloud, index, theta), False)[np.where(ids >= 0, ids, -1)]
+    fits = polygon_widths(cloud.hulls[index], np.array([theta]))[0] <= cloud.max_width + 1e-9
     feats = np.stack([cloud.z[chosen] / HEIGHT_SCALE, (ids == index).astype(float),
-                      (ids == WALL_ID).astype(float), in_corridor[chosen].astype(float)], axis=1)
+                      (ids == WALL_ID).astype(float), in_corridor[chosen].astype(float),
+                      hull_flag.astype(float), ((ids == index) & fits).astype(float)], axis=1)
     return (rot[chosen] / COORD_SCALE).astype(np.float32), feats.astype(np.float32), ids
 
 
@@ -277,7 +307,7 @@ class Samples:
     """Arrays of encoded, labelled queries (one row per query)."""
 
     xy: np.ndarray  #: (Q, P, 2) float16
-    feats: np.ndarray  #: (Q, P, 3) float16
+    feats: np.ndarray  #: (Q, P, NUM_FEATURES) float16
     point_label: np.ndarray  #: (Q, P) int8: 1 blocker point, 0 other point, -1 ignore (query/wall)
     ids: np.ndarray  #: (Q, P) int8 object index per point (WALL_ID: wall)
     reach: np.ndarray  #: (Q,) bool

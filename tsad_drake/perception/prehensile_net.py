@@ -40,7 +40,7 @@ class NetConfig:
     """Sizes of the network (radii are in scaled units: metres / COORD_SCALE)."""
 
     num_points: int = 256
-    in_features: int = 4  #: prehensile_data.NUM_FEATURES
+    in_features: int = 6  #: prehensile_data.NUM_FEATURES
     sa1_centroids: int = 64
     sa1_neighbours: int = 16
     sa1_radius: float = 0.3  #: 0.06 m

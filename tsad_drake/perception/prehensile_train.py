@@ -34,7 +34,7 @@ from tsad_drake.perception.prehensile_net import (
 #: v4: reach and block heads read the queried object's and the walls' pooled point embeddings
 #: (v3: 256 points, first-K ball query, in-corridor channel; v2: 512 points, per-object head;
 #: v1: per-point block vote)
-CHECKPOINT_FORMAT = "tsad-prehensile-net-v4"
+CHECKPOINT_FORMAT = "tsad-prehensile-net-v5"
 #: the shipped weights, produced by `tsad train` (see README: model card)
 DEFAULT_WEIGHTS = Path(__file__).resolve().parent.parent / "data" / "prehensile_net.pt"
 BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-object blocker loss against the reach loss

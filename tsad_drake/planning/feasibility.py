@@ -28,7 +28,7 @@ from tsad_drake.geometry2d import (
     side_wall_polygons,
     width_across,
 )
-from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP, footprint_hull
+from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP, perceived_hull
 from tsad_drake.planning.types import FeasibilityModel, PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import ObjectConfig, Scenario
 
@@ -310,19 +310,8 @@ class GeometricFeasibility(FootprintFeasibility):
 
     name = "geometric"
 
-    def __init__(self, workspace: Workspace, placement_gap: float = DEFAULT_PLACEMENT_GAP) -> None:
-        super().__init__(workspace, placement_gap)
-        self._local_hulls: dict[tuple, np.ndarray] = {}
-
     def object_geometry(self, obj: PlanObject) -> ObjectGeometry:
-        origin = obj.origin if obj.origin is not None else obj.pose
-        key = (obj.name, origin, len(obj.points))
-        turned = obj.yaw - origin[2]
-        local = self._local_hulls.get(key)
-        if local is None:  # hull in the frame of the perceived object, reused after every move
-            local = (footprint_hull(obj) - np.array([obj.x, obj.y])) @ rotation2d(turned)
-            self._local_hulls[key] = local
-        polygon = local @ rotation2d(turned).T + np.array([obj.x, obj.y])
+        polygon = perceived_hull(obj)
         return ObjectGeometry(polygon, np.array([obj.x, obj.y]),
                               polygon_widths(polygon, self.workspace.approach_angles))
 

@@ -56,6 +56,24 @@ def footprint_hull(obj: PlanObject, directions: int = HULL_DIRECTIONS) -> np.nda
     return hull[keep]
 
 
+_LOCAL_HULLS: dict[tuple, np.ndarray] = {}
+
+
+def perceived_hull(obj: PlanObject) -> np.ndarray:
+    """`footprint_hull` of `obj` at its current pose, computed once per perceived object and
+    moved rigidly with it afterwards (a moved object keeps the points it was perceived with)."""
+    origin = obj.origin if obj.origin is not None else obj.pose
+    key = (obj.name, origin, len(obj.points))
+    turned = obj.yaw - origin[2]
+    local = _LOCAL_HULLS.get(key)
+    if local is None:  # in the frame of the perceived object
+        if len(_LOCAL_HULLS) > 20_000:
+            _LOCAL_HULLS.clear()
+        local = (footprint_hull(obj) - np.array([obj.x, obj.y])) @ rotation2d(turned)
+        _LOCAL_HULLS[key] = local
+    return local @ rotation2d(turned).T + np.array([obj.x, obj.y])
+
+
 def moved_polygon(polygon: np.ndarray, centre: tuple[float, float], x: float, y: float,
                   rotation: float) -> np.ndarray:
     """`polygon` moved rigidly as the simulation moves its object (centre -> (x, y), turned)."""
