@@ -31,15 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tsad_drake.geometry2d import (
-    approach_corridor,
-    convex_polygons_overlap_pairs,
-    pad_polygons,
-    rotation2d,
-    side_wall_polygons,
-)
+from tsad_drake.geometry2d import rotation2d, side_wall_polygons
 from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, polygon_widths
-from tsad_drake.planning.pointcloud_sim import perceived_hull
+from tsad_drake.planning.pointcloud_sim import HULL_DIRECTIONS, perceived_hull
 from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspace
 
 NUM_POINTS = 256  #: points per query
@@ -96,7 +90,11 @@ class StateCloud:
     z: np.ndarray
     ids: np.ndarray
     centres: np.ndarray  #: (N, 2) estimated object centres
-    hulls: np.ndarray  #: (N, K, 2) padded footprint hulls (`pointcloud_sim.perceived_hull`)
+    hulls: np.ndarray  #: (N, K, 2) footprint hulls, K = HULL_DIRECTIONS (`padded_hull`)
+    hull_normals: np.ndarray  #: (N, K, 2) their edge normals
+    hull_low: np.ndarray  #: (N, K) each hull's lowest projection on each of its normals
+    hull_high: np.ndarray  #: (N, K) and its highest
+    hull_edges: np.ndarray  #: (N, K) False for the padding's zero-length edges
     half_width: float  #: m, the open gripper's swept half width (the corridor)
     max_width: float  #: m, widest object the fingers take (stroke minus grasp margin)
     finger_reach: float  #: m, fingertip sweep past the grasp centre (the corridor's far end)
@@ -136,6 +134,39 @@ def object_cloud(obj: PlanObject) -> tuple[np.ndarray, np.ndarray]:
     return rel @ rotation2d(obj.yaw - origin[2]).T + [obj.x, obj.y], z
 
 
+_PADDED_HULLS: dict[tuple, tuple[np.ndarray, ...]] = {}
+
+
+def padded_hull(obj: PlanObject) -> tuple[np.ndarray, ...]:
+    """`perceived_hull` of `obj` at its current pose padded to HULL_DIRECTIONS vertices (the last
+    one repeated: a zero-length edge) with its separating-axis data: (vertices (K, 2), edge
+    normals (K, 2), the hull's lowest and highest projection on each (K,), which edges are real
+    (K,)). Memoised per pose: most objects of a simulated next state have not moved."""
+    key = (obj.name, obj.pose, obj.origin, len(obj.points))
+    entry = _PADDED_HULLS.get(key)
+    if entry is None:
+        if len(_PADDED_HULLS) > 50_000:
+            _PADDED_HULLS.clear()
+        polygon = perceived_hull(obj)
+        hull = np.concatenate([polygon, np.repeat(polygon[-1:], HULL_DIRECTIONS - len(polygon), 0)])
+        edges = np.roll(hull, -1, axis=0) - hull
+        normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+        proj = normals @ hull.T  # (normal, vertex)
+        entry = (hull, normals, proj.min(axis=1), proj.max(axis=1), np.any(edges != 0, axis=1))
+        _PADDED_HULLS[key] = entry
+    return entry
+
+
+def hull_arrays(state: PlanningState) -> list[np.ndarray]:
+    """`padded_hull` of every object of `state`, stacked field by field ((N, ...) each)."""
+    entries = [padded_hull(o) for o in state.objects]
+    if not entries:
+        return [np.zeros((0, HULL_DIRECTIONS, 2)), np.zeros((0, HULL_DIRECTIONS, 2)),
+                np.zeros((0, HULL_DIRECTIONS)), np.zeros((0, HULL_DIRECTIONS)),
+                np.zeros((0, HULL_DIRECTIONS), dtype=bool)]
+    return [np.stack(field) for field in zip(*entries, strict=True)]
+
+
 def state_cloud(state: PlanningState, workspace: Workspace) -> StateCloud:
     """The flattened cloud of `state` (objects' current points) plus the side walls."""
     parts = [object_cloud(obj) for obj in state.objects]
@@ -145,18 +176,37 @@ def state_cloud(state: PlanningState, workspace: Workspace) -> StateCloud:
     ids = [np.full(len(p[1]), k) for k, p in enumerate(parts)] + [np.full(len(walls), WALL_ID)]
     return StateCloud(np.concatenate(xy), np.concatenate(z), np.concatenate(ids),
                       np.array([[o.x, o.y] for o in state.objects]).reshape(-1, 2),
-                      pad_polygons([perceived_hull(o) for o in state.objects]),
+                      *hull_arrays(state),
                       workspace.swept_half_width, workspace.stroke - workspace.grasp_margin,
                       workspace.finger_reach)
 
 
 def hull_hits(cloud: StateCloud, index: int, theta: float) -> np.ndarray:
     """(N,) whether each object's footprint hull meets the approach corridor to object `index`
-    at `theta` (False for `index` itself)."""
-    corridor = approach_corridor(*cloud.centres[index], theta, cloud.half_width,
-                                 cloud.finger_reach, CORRIDOR_OUTSIDE)
-    hits = convex_polygons_overlap_pairs(np.broadcast_to(corridor, (len(cloud.hulls), 4, 2)),
-                                         cloud.hulls)
+    at `theta` (False for `index` itself).
+
+    The separating-axis test of `geometry2d.convex_polygons_overlap_pairs` against the corridor
+    of `geometry2d.approach_corridor` (touching counts as meeting), with each hull's side of the
+    test (its edge normals and its extent along them) precomputed per object pose
+    (`padded_hull`): one query is a few products of (N, K) arrays (the generic test: 0.1 ms).
+    """
+    u = np.array([np.cos(theta), np.sin(theta)])
+    v = np.array([-u[1], u[0]])
+    back = (cloud.centres[index, 0] + CORRIDOR_OUTSIDE) / max(u[0], 1e-6)
+    front, half = cloud.finger_reach, cloud.half_width
+    mid = cloud.centres[index] + (front - back) / 2 * u  # the corridor box's centre
+    # the corridor's own axes
+    along = (cloud.hulls - mid) @ u
+    across = (cloud.hulls - mid) @ v
+    length = (front + back) / 2
+    hits = ((along.min(axis=1) <= length) & (along.max(axis=1) >= -length)
+            & (across.min(axis=1) <= half) & (across.max(axis=1) >= -half))
+    # the hulls' edge normals: the box's projection against the hull's extent along each
+    n = cloud.hull_normals
+    centre = n @ mid
+    extent = length * np.abs(n @ u) + half * np.abs(n @ v)
+    apart = (centre - extent > cloud.hull_high) | (centre + extent < cloud.hull_low)
+    hits &= ~np.any(apart & cloud.hull_edges, axis=1)
     hits[index] = False
     return hits
 
