@@ -87,3 +87,13 @@ def test_report_says_which_targets_are_missed_by_how_much_and_why(tmp_path):
     assert "median planning time 6.00 s (target under 5 s): **missed** by 1.00 s" in text
     # rots (0.20) below gp3 (0.30): not the paper's order
     assert "gp3 0.30 < rots 0.20 < rots-star 0.50 < tsad 0.70): **missed**" in text
+
+
+def test_net_timing_prints_a_row_per_batch_and_thread_count(capsys):
+    from tsad_drake.bench.net_timing import main
+
+    assert main(["--batches", "1,3", "--threads", "1"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    rows = [line.split() for line in lines[1:3]]
+    assert [r[:2] for r in rows] == [["1", "1"], ["3", "1"]]
+    assert all(float(r[2]) > 0 for r in rows) and lines[3].startswith("encoding:")

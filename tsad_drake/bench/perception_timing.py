@@ -20,7 +20,7 @@ from tsad_drake.scenario import Scenario
 from tsad_drake.scenario_generator import generate_scenario
 
 
-def _best_time(fn, repeats: int) -> float:
+def best_time(fn, repeats: int) -> float:
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -31,7 +31,7 @@ def _best_time(fn, repeats: int) -> float:
 
 def time_raycast(scenario: Scenario, segmentation: str, repeats: int = 3) -> float:
     """Seconds (best of `repeats`) for one ray-cast observation of `scenario`."""
-    return _best_time(lambda: observe_raycast(scenario, segmentation=segmentation), repeats)
+    return best_time(lambda: observe_raycast(scenario, segmentation=segmentation), repeats)
 
 
 def time_station(scenario: Scenario, segmentation: str, repeats: int = 3
@@ -44,7 +44,7 @@ def time_station(scenario: Scenario, segmentation: str, repeats: int = 3
     start = time.perf_counter()
     station = MakeStation(scenario)
     build = time.perf_counter() - start
-    return build, _best_time(lambda: observe(station, segmentation=segmentation), repeats)
+    return build, best_time(lambda: observe(station, segmentation=segmentation), repeats)
 
 
 def _wrap_quarter(angle: float) -> float:
