@@ -182,7 +182,9 @@ def pad_polygons(polygons: list[np.ndarray]) -> np.ndarray:
     return out
 
 
-def _batch_normals(polys: np.ndarray) -> np.ndarray:
+def edge_normals(polys: np.ndarray) -> np.ndarray:
+    """(..., K, 2) unit outward normals of the edges of counter-clockwise polygons (..., K, 2);
+    zero for the zero-length edges that `pad_polygons` adds."""
     edges = np.roll(polys, -1, axis=-2) - polys
     normals = np.stack([edges[..., 1], -edges[..., 0]], axis=-1)
     length = np.linalg.norm(normals, axis=-1, keepdims=True)
@@ -197,7 +199,7 @@ def convex_polygons_overlap_pairs(a: np.ndarray, b: np.ndarray, margin: float = 
     corners (it may report contact for polygons slightly farther apart than `margin`).
     """
     separated = np.zeros(a.shape[0], dtype=bool)
-    for normals in (_batch_normals(a), _batch_normals(b)):  # (P, K, 2)
+    for normals in (edge_normals(a), edge_normals(b)):  # (P, K, 2)
         axes = normals.transpose(0, 2, 1)
         pa = a @ axes  # (P, Va, K)
         pb = b @ axes

@@ -6,7 +6,8 @@ kept), moved so object i's estimated centre is the origin and rotated by -theta 
 runs along +x, cropped to the window the approach can touch and sampled to `NUM_POINTS` points
 (the queried object's, its outermost points across the approach first; then every point in the
 corridor; then the rest at random). Per point: xy (m / COORD_SCALE) and features
-(height, is-queried-object, is-wall, in-corridor). In-corridor marks the points inside the open
+(height, is-queried-object, is-wall, in-corridor, hull-in-corridor, hull-fits; see NUM_FEATURES).
+In-corridor marks the points inside the open
 gripper's swept corridor (|y| <= swept half width, x <= finger reach in the approach frame): a
 known fact of the gripper, like the walls, so the network need not learn the corridor's edge to
 the millimetre from examples and can spend itself on what the points do not show (the hidden
@@ -31,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tsad_drake.geometry2d import rotation2d, side_wall_polygons
+from tsad_drake.geometry2d import edge_normals, rotation2d, side_wall_polygons
 from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, polygon_widths
 from tsad_drake.planning.pointcloud_sim import HULL_DIRECTIONS, perceived_hull
 from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspace
@@ -149,10 +150,9 @@ def padded_hull(obj: PlanObject) -> tuple[np.ndarray, ...]:
             _PADDED_HULLS.clear()
         polygon = perceived_hull(obj)
         hull = np.concatenate([polygon, np.repeat(polygon[-1:], HULL_DIRECTIONS - len(polygon), 0)])
-        edges = np.roll(hull, -1, axis=0) - hull
-        normals = np.stack([edges[:, 1], -edges[:, 0]], axis=1)
+        normals = edge_normals(hull)
         proj = normals @ hull.T  # (normal, vertex)
-        entry = (hull, normals, proj.min(axis=1), proj.max(axis=1), np.any(edges != 0, axis=1))
+        entry = (hull, normals, proj.min(axis=1), proj.max(axis=1), np.any(normals != 0, axis=1))
         _PADDED_HULLS[key] = entry
     return entry
 
