@@ -5,14 +5,20 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
+from tsad_drake.execution.world import WorldModel
 from tsad_drake.geometry2d import convex_polygon_distance, width_across
+from tsad_drake.planning.feasibility import OracleFeasibility
+from tsad_drake.planning.optimal import plan_optimal
+from tsad_drake.planning.state import make_workspace
 from tsad_drake.scenario import ScenarioError, load_scenario, save_scenario, validate
 from tsad_drake.scenario_generator import (
     BUILTIN_SCENARIOS,
     generate_scenario,
+    plan_solvable,
     removal_solvable,
     scenario_defaults,
     target_blockers,
+    true_state,
 )
 from tsad_drake.viewpoints import CameraConfig, target_visibility
 
@@ -42,11 +48,17 @@ def _check_invariants(scenario):
     return cfg
 
 
+def _unchecked(name):
+    """The generator settings of scenario `name` without the (costly) solvability check."""
+    return dc.replace(scenario_defaults(name)[1], solvable_nodes=0)
+
+
 @pytest.mark.parametrize("name", BUILTIN_SCENARIOS)
 def test_generated_scenes_satisfy_invariants(name):
+    # the solvability check is the generator's last test: skipping it keeps every other invariant
     kinds = []
     for seed in range(SCENES_PER_SCENARIO):
-        scenario = generate_scenario(name, seed)
+        scenario = generate_scenario(name, seed, config=_unchecked(name))
         _check_invariants(scenario)
         kinds.extend(o.kind for o in scenario.objects)
     stroke = 0.085 - 0.005
@@ -58,13 +70,49 @@ def test_generated_scenes_satisfy_invariants(name):
         assert kinds.count("large") == SCENES_PER_SCENARIO
     # what the kinds promise about the gripper
     for seed in range(5):
-        for obj in generate_scenario(name, seed).objects:
+        for obj in generate_scenario(name, seed, config=_unchecked(name)).objects:
             widths = [width_across(obj.shape, obj.size, obj.yaw, np.radians(a))
                       for a in range(-30, 31, 10)]
             if obj.kind in ("cylinder", "square_pillar"):
                 assert max(widths) <= stroke
             if obj.kind == "large":
                 assert min(widths) > 0.085
+
+
+def test_solvability_check_replaces_a_scene_with_no_room_for_its_blockers():
+    # scenario 2 seed 17 without the check: the target (by the right wall) needs three blockers
+    # moved and the scarce free cells cannot take them; removing objects alone would free it
+    crowded = generate_scenario("2", 17, config=_unchecked("2"))
+    assert removal_solvable(crowded)
+    assert not plan_solvable(crowded, scenario_defaults("2")[1].solvable_nodes)
+    scene = generate_scenario("2", 17)
+    assert scene != crowded
+    # the kept scene is solved by the optimal plan, checked in the world model on true shapes
+    workspace = make_workspace(scene)
+    oracle = OracleFeasibility(scene, workspace)
+    plan = plan_optimal(true_state(scene), oracle, workspace)
+    assert plan.success and plan.actions
+    world = WorldModel(scene)
+    for action in plan.actions:
+        world.apply(action)
+    assert not world.fallen and world.failure == ""
+    assert world.retrieve() and world.outcome().success
+
+
+def test_true_state_points_fill_each_footprint():
+    scene = generate_scenario("3", 0, config=_unchecked("3"))
+    state = true_state(scene)
+    assert [o.name for o in state.objects] == [o.name for o in scene.objects]
+    for obj, true in zip(state.objects, scene.objects):
+        poly = true.footprint()
+        assert obj.pose == (true.x, true.y, true.yaw)
+        assert np.allclose(obj.points[:, 2], true.size[-1])
+        # every point lies in the (counter-clockwise) footprint and the points span it
+        edges = np.roll(poly, -1, axis=0) - poly
+        rel = obj.points[:, None, :2] - poly[None, :, :]
+        assert (edges[None, :, 0] * rel[:, :, 1] - edges[None, :, 1] * rel[:, :, 0] > -1e-12).all()
+        assert np.allclose(obj.points[:, :2].min(axis=0), poly.min(axis=0))
+        assert np.allclose(obj.points[:, :2].max(axis=0), poly.max(axis=0))
 
 
 def test_same_seed_same_scene_and_different_seeds_differ():

@@ -331,9 +331,13 @@ def scene_states(seed: int, observer: str = "raycast", relocations: int = 2,
     """[(kind, state, oracle)] for scene `seed`: observed, relocated, re-observed."""
     from tsad_drake.planning.feasibility import OracleFeasibility
     from tsad_drake.planning.state import make_workspace
-    from tsad_drake.scenario_generator import generate_scenario
+    from tsad_drake.scenario_generator import generate_scenario, scenario_defaults
 
-    scenario = generate_scenario(scenario_type(seed), seed)
+    name = scenario_type(seed)
+    # labels need no solvable scene: skipping the (costly) solvability check keeps data fast
+    # and the same as the shipped weights were trained on
+    config = dc.replace(scenario_defaults(name)[1], solvable_nodes=0)
+    scenario = generate_scenario(name, seed, config=config)
     workspace = make_workspace(scenario)
     oracle = OracleFeasibility(scenario, workspace)
     state = observe_state(scenario, observer)
