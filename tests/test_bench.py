@@ -35,6 +35,17 @@ def test_rerun_resumes_and_reruns_rows_of_another_scene(tmp_path):
     assert third["rows"][1]["scene_digest"] == first["rows"][1]["scene_digest"]
     assert json.loads(out.read_text())["summary"]["episodes"] == 2
 
+    # the cut-off line was ended before the new row was appended, so every row reads back
+    from tsad_drake.bench.runner import _load_rows
+
+    lines = rows_path.read_text().splitlines()
+    assert json.loads(lines[-1]) == third["rows"][1]
+    assert set(_load_rows(rows_path, _specs([0, 1]))) == {0, 1}
+    # a row from before rows recorded their scene's digest cannot be matched: it is run again
+    undigested = {k: v for k, v in json.loads(lines[-1]).items() if k != "scene_digest"}
+    rows_path.write_text(lines[0] + "\n" + json.dumps(undigested) + "\n")
+    assert set(_load_rows(rows_path, _specs([0, 1]))) == {0}
+
 
 def test_rows_of_other_network_weights_are_run_again(tmp_path):
     """A `--feasibility net` row records the shipped weights' digest; resuming keeps the rows of

@@ -69,10 +69,10 @@ def machine_info() -> dict:
 
 
 def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
-    """Rows of `path` that belong to this run: same settings and, where a row records its scene's
-    digest, the same scene (a row from before a generator change is run again); a network row
-    must record the shipped weights' digest (a row of other weights, or from before rows recorded
-    it, is run again)."""
+    """Rows of `path` that belong to this run: same settings and the same scene (the row's recorded
+    scene digest; a row from before a generator change, or from before rows recorded the digest,
+    is run again); a network row must record the shipped weights' digest (a row of other weights,
+    or from before rows recorded it, is run again)."""
     if not path.exists():
         return {}
     from tsad_drake.bench.episodes import spec_scenario, weights_digest
@@ -95,7 +95,7 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
             current = current or weights_digest()
             if weights != current:
                 continue
-        if digest is None or digest == scene_digest(spec_scenario(by_seed[row["seed"]])):
+        if digest is not None and digest == scene_digest(spec_scenario(by_seed[row["seed"]])):
             done[row["seed"]] = row
     return done
 
@@ -117,6 +117,9 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
 
     rows_path = out.with_name(out.name + ".rows.jsonl")
     done = _load_rows(rows_path, specs)
+    if rows_path.exists() and not rows_path.read_bytes().endswith(b"\n") and rows_path.stat().st_size:
+        with rows_path.open("a") as f:  # end a line cut off by an interruption before appending
+            f.write("\n")
     todo = [s for s in specs if s.seed not in done]
     bar = tqdm(total=len(specs), initial=len(specs) - len(todo), disable=not progress,
                desc=f"{specs[0].planner} s{specs[0].scenario}", unit="ep")
