@@ -88,6 +88,17 @@ def test_report_says_which_targets_are_missed_by_how_much_and_why(tmp_path):
     # rots (0.20) below gp3 (0.30): not the paper's order
     assert "gp3 0.30 < rots 0.20 < rots-star 0.50 < tsad 0.70): **missed**" in text
 
+    # a tie is not the paper's order either; strictly increasing is; every scene solvable: no
+    # "of the rest"
+    for rots_k, verdict in ((3, "**missed**"), (4, "met")):
+        rots = _document("rots", [(True, 3)] * rots_k + [(False, 3)] * (10 - rots_k))
+        solvable = _document("optimal", [(True, 4)] * 10, "oracle")
+        write_report([solvable, tsad, baselines[0], rots, baselines[2]], page)
+        text = page.read_text()
+        assert f"rots 0.{rots_k}0 < rots-star 0.50 < tsad 0.70): {verdict}" in text
+        assert "`optimal` solves 10/10 of these scenes, TSAD 7/10 of those\n" in text
+        assert "of the rest" not in text
+
 
 def test_net_timing_prints_a_row_per_batch_and_thread_count(capsys):
     from tsad_drake.bench.net_timing import main
