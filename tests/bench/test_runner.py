@@ -15,13 +15,19 @@ def _specs(planner, seeds, feasibility="oracle"):
 def test_resume_skips_finished_seeds_and_errors_are_rows(tmp_path):
     out = tmp_path / "bench.json"
     rows_path = tmp_path / "bench.json.rows.jsonl"
-    # a finished row from an "interrupted" earlier run, marked so we can see it is reused
+    from tsad_drake.bench.episodes import spec_scenario
+    from tsad_drake.scenario import scene_digest
+
+    # a finished row from an "interrupted" earlier run (same scene), marked so we can see it is
+    # reused
+    specs = _specs("no-such-planner", [0, 1])
     earlier = {"scenario": "1", "planner": "no-such-planner", "feasibility": "oracle",
                "ablation": "none", "observer": "raycast", "occluded": False, "closed_loop": True,
                "seed": 0, "success": True, "num_actions": 3, "falls": 0,
-               "planning_time_s": 0.5, "marker": "reused"}
+               "planning_time_s": 0.5, "marker": "reused",
+               "scene_digest": scene_digest(spec_scenario(specs[0]))}
     rows_path.write_text(json.dumps(earlier) + "\n" + '{"truncated": ')
-    document = run_bench(_specs("no-such-planner", [0, 1]), out, progress=False)
+    document = run_bench(specs, out, progress=False)
     rows = {r["seed"]: r for r in document["rows"]}
     assert rows[0]["marker"] == "reused"
     assert not rows[1]["success"]

@@ -1,6 +1,7 @@
 """GP3, ROTS, ROTS* and optimal on hand-built scenes: the failures the paper describes, plans that
 the world model confirms, known minima, budgets and determinism."""
 
+import dataclasses as dc
 import json
 from pathlib import Path
 
@@ -97,8 +98,14 @@ def test_gp3_fails_when_there_is_no_free_space(scenes):
     scenario, workspace, state, oracle = scenes["narrow"]
     theta, order = gp3_optimal_angle(state, oracle, workspace, GP3Config(), np.random.default_rng(0))
     assert theta is not None and set(order) == {"a", "b"}  # removing both frees the target...
+    # ...but there is nowhere to put them: the paper's rule (most empty cells) puts the first where
+    # it blocks the second; kept out of the target's corridor, the first has nowhere to go
     plan = plan_gp3(state, oracle, workspace, GP3Config(), np.random.default_rng(0))
-    assert not plan.success and plan.theta_star is None  # ...but neither can be put anywhere
+    assert not plan.success and plan.theta_star is None
+    assert plan.failure_reason == "a cannot be picked after the earlier placements"
+    plan = plan_gp3(state, oracle, workspace, GP3Config(avoid_target_corridor=True),
+                    np.random.default_rng(0))
+    assert not plan.success and plan.theta_star is None
     assert plan.failure_reason.startswith("no free space to place")
     assert plan.actions == []
     best = plan_optimal(state, oracle, workspace, OptimalConfig(time_limit_s=5.0))
@@ -140,11 +147,22 @@ def test_optimal_respects_its_budget(scenes):
     assert not plan.success and plan.planning_time_s < 1.0
 
 
-@pytest.mark.parametrize("planner", ["gp3", "rots", "rots-star", "optimal"])
+@pytest.mark.parametrize("planner", ["gp3", "gp3-corridor", "rots", "rots-star", "optimal"])
 def test_plans_do_in_the_world_what_they_claim(planner, scenes):
     scenario, workspace, state, oracle = scenes["two"]
-    plan = PLANNERS[planner](state, oracle, workspace, make_config(planner),
-                             np.random.default_rng(1))
+    config = make_config(planner.removesuffix("-corridor"))
+    if planner == "gp3-corridor":
+        config = dc.replace(config, avoid_target_corridor=True)
+    plan = PLANNERS[planner.removesuffix("-corridor")](state, oracle, workspace, config,
+                                                      np.random.default_rng(1))
+    if planner == "gp3":
+        # the paper's placement rule puts a blocker back in the target's way here, and says so
+        assert not plan.success and plan.failure_reason == "the placements block the target"
+        world = WorldModel(scenario)
+        for action in plan.actions:
+            world.apply(action)
+        assert world.relocations == len(plan.actions) and world.retrieval_angle() is None
+        return
     assert plan.success, plan.failure_reason
     world = _execute(scenario, plan)
     assert world.success and world.fallen == []

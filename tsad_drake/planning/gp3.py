@@ -38,8 +38,10 @@ class GP3Config:
     exploration: float = 1.0  #: c, UCB exploration coefficient
     discount: float = 0.8  #: reward = discount^removals at a terminal node, 0 at a dead end
     max_depth: int = 9  #: removals per simulated episode
-    #: never place an object where it would block the target at theta* (else the plan defeats itself)
-    avoid_target_corridor: bool = True
+    #: skip cells where the placed object would block the target at theta*; False is the rule as
+    #: the TSAD paper states it (the cell leaving the most empty cells, nothing else), which is
+    #: how GP3 fails when free space is scarce
+    avoid_target_corridor: bool = False
 
 
 @dc.dataclass

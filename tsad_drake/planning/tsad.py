@@ -26,6 +26,7 @@ from collections.abc import Callable
 import numpy as np
 
 from tsad_drake.planning.actions import UntriedActions, choose_theta_pick, random_action
+from tsad_drake.planning.baseline_common import reachable_angles
 from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.plan_check import rearrangement_set, relocation_key, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
@@ -101,14 +102,6 @@ class EmptyCells:
         return int(len(occupied) - occupied.sum())
 
 
-def reachable_angles(feasibility: FeasibilityModel, state: PlanningState, index: int) -> np.ndarray:
-    """(A,) angles at which object `index` could be picked if nothing stood in the way."""
-    reach = getattr(feasibility, "reachable", None)
-    if reach is not None:
-        return reach(state, index)
-    return np.ones(len(feasibility.pickable(state, index)), dtype=bool)
-
-
 def _without(state: PlanningState, names: set[str]) -> PlanningState:
     return PlanningState(tuple(o for o in state.objects if o.name not in names), state.target)
 
@@ -146,7 +139,7 @@ def ranked_angles(state: PlanningState, feasibility: FeasibilityModel, workspace
                   max_removals: int = 8) -> list[float]:
     """Reachable retrieval angles, best first by (removable?, monotone removal cost, |R|, |theta|)."""
     t = state.target_index
-    reach = reachable_angles(feasibility, state, t)
+    reach = reachable_angles(feasibility, state, t, workspace)
     blockers = feasibility.blockers(state, t)
     keyed = []
     for k, theta in enumerate(workspace.approach_angles):
