@@ -46,6 +46,7 @@ from tsad_drake.geometry2d import (
     convex_polygons_overlap_pairs,
     footprint_polygon,
     pad_polygons,
+    points_in_polygon,
     side_wall_polygons,
     width_across,
 )
@@ -305,10 +306,7 @@ def true_state(scenario: Scenario, spacing: float = 0.01) -> PlanningState:
         gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + 1e-9, spacing),
                              np.arange(lo[1], hi[1] + 1e-9, spacing), indexing="ij")
         grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
-        edges = np.roll(poly, -1, axis=0) - poly  # counter-clockwise: inside is to the left
-        rel = grid[:, None, :] - poly[None, :, :]
-        inside = (edges[None, :, 0] * rel[:, :, 1] - edges[None, :, 1] * rel[:, :, 0] >= 0).all(1)
-        xy = np.concatenate([poly, grid[inside]])
+        xy = np.concatenate([poly, grid[points_in_polygon(grid, poly)]])
         points = np.column_stack([xy, np.full(len(xy), o.size[-1])])
         points.setflags(write=False)
         pose = (float(o.x), float(o.y), float(o.yaw))

@@ -117,9 +117,11 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
 
     rows_path = out.with_name(out.name + ".rows.jsonl")
     done = _load_rows(rows_path, specs)
-    if rows_path.exists() and not rows_path.read_bytes().endswith(b"\n") and rows_path.stat().st_size:
-        with rows_path.open("a") as f:  # end a line cut off by an interruption before appending
-            f.write("\n")
+    if rows_path.exists() and rows_path.stat().st_size:
+        with rows_path.open("rb+") as f:  # end a line cut off by an interruption before appending
+            f.seek(-1, os.SEEK_END)
+            if f.read(1) != b"\n":
+                f.write(b"\n")
     todo = [s for s in specs if s.seed not in done]
     bar = tqdm(total=len(specs), initial=len(specs) - len(todo), disable=not progress,
                desc=f"{specs[0].planner} s{specs[0].scenario}", unit="ep")
