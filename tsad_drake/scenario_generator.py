@@ -24,8 +24,8 @@ the shelf really offers (`plan_solvable`: the `optimal` planner on the true shap
 within a node budget, so the check is deterministic). The paper's scenes were set up by hand and
 were solvable; without the last check about a quarter of scenario 2's draws (three long
 rectangles, scarce free space) left no room for the blockers. The check keeps the few scenes
-that are solvable but need more than the budget out too (scenario 1 seeds 4, 6, 8 of the earlier
-generator). `python -m tsad_drake.bench.difficulty` measures the result.
+that are solvable but need more search than the budget out too (scenario 1 seeds 6 and 8 of the
+earlier generator, which TSAD solved). `python -m tsad_drake.bench.difficulty` measures the result.
 
 The occluded variant puts a short target deep in the shelf and a front row of tall pickable
 objects (`occluded_front`, `occluded_front_height`) between it and the opening, and keeps the layout when
