@@ -16,6 +16,7 @@ from tsad_drake.planning.plan_check import plan_still_valid
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.planning.tsad import TSADConfig, plan_tsad
+from tsad_drake.planning.types import Action
 from tsad_drake.scenario import GridConfig, GripperConfig, ObjectConfig, Scenario, ShelfConfig
 from tsad_drake.scenario_generator import target_blockers
 
@@ -134,6 +135,28 @@ def test_unsolvable_scene_fails_within_budget(scenes):
                      np.random.default_rng(0))
     assert not plan.success and plan.failure_reason
     assert time.perf_counter() - t0 < 2.0 + 1.5
+
+
+def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypatch):
+    # the furthest attempt comes first; the attempts after it cost time too and must be counted
+    import tsad_drake.planning.tsad as tsad_module
+
+    scenario, workspace, state = scenes[("walled", 0)]
+    calls = []
+
+    def attempt(state, feasibility, workspace, config, rng, theta_star, deadline, result):
+        time.sleep(0.1)
+        calls.append(theta_star)
+        actions = [Action(state.objects[0].name, 0.0, 0.1, 0.0, 0.0)] if len(calls) == 1 else []
+        return result(theta_star, actions, False, "sub-search 0: no terminal state found")
+
+    monkeypatch.setattr(tsad_module, "_sequential_sub_search", attempt)
+    t0 = time.perf_counter()
+    plan = plan_tsad(state, make_feasibility("oracle", scenario, workspace), workspace, CONFIG,
+                     np.random.default_rng(0))
+    wall = time.perf_counter() - t0
+    assert not plan.success and len(plan.actions) == 1 and len(calls) >= 3
+    assert plan.planning_time_s >= wall - 0.05 >= 0.1 * len(calls) - 0.05
 
 
 def test_target_too_wide_is_a_failure_result(scenes):

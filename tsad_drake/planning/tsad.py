@@ -418,6 +418,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         if len(found) >= config.complete_plans or time.perf_counter() >= improve_until:
             break
     if not found:
+        best.planning_time_s = time.perf_counter() - start  # every attempt, not just this one
         return best
     shortest = min(found, key=lambda p: len(p.actions))  # the first of the shortest
     shortest.stats["complete_plans"] = [len(p.actions) for p in found]
