@@ -66,3 +66,18 @@ def test_workspace_grid_and_empty_cells(workspace):
     assert empty_cell_count(state, workspace) == len(workspace.cell_centres) - 1
     far = PlanningState((_disc("a", cell[0], cell[1], r=0.001),), "a")
     assert empty_cell_count(far, workspace) == len(workspace.cell_centres) - 1
+
+
+def test_edge_margin_keeps_perceived_placements_off_the_floor_edges(workspace):
+    from tsad_drake.planning.feasibility import GeometricFeasibility
+
+    front_cell = int(np.argmin(workspace.cell_centres[:, 0] + workspace.cell_centres[:, 1]))
+    x, y = workspace.cell_centres[front_cell]
+    radius = x - 0.0005  # the disc placed there ends 0.5 mm inside the front edge
+    state = PlanningState((_disc("a", 0.2, 0.0, r=radius, n=400), _disc("t", 0.25, 0.18, r=0.02)),
+                          "t")
+    exact = GeometricFeasibility(workspace, placement_gap=0.003, edge_margin=0.0)
+    margin = GeometricFeasibility(workspace, placement_gap=0.003, edge_margin=0.001)
+    assert not np.isnan(exact.place_options(state, 0, 0.0)[front_cell])
+    assert np.isnan(margin.place_options(state, 0, 0.0)[front_cell])
+    assert GeometricFeasibility(workspace).edge_margin > 0.0  # the perceived model's default

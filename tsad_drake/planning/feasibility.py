@@ -28,7 +28,12 @@ from tsad_drake.geometry2d import (
     side_wall_polygons,
     width_across,
 )
-from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP, perceived_hull
+from tsad_drake.planning.pointcloud_sim import (
+    DEFAULT_PLACEMENT_GAP,
+    PERCEIVED_EDGE_MARGIN,
+    PERCEIVED_PLACEMENT_GAP,
+    perceived_hull,
+)
 from tsad_drake.planning.types import FeasibilityModel, PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import ObjectConfig, Scenario
 
@@ -169,9 +174,11 @@ class FootprintFeasibility:
 
     name = "footprint"
 
-    def __init__(self, workspace: Workspace, placement_gap: float = DEFAULT_PLACEMENT_GAP) -> None:
+    def __init__(self, workspace: Workspace, placement_gap: float = DEFAULT_PLACEMENT_GAP,
+                 edge_margin: float = 0.0) -> None:
         self.workspace = workspace
         self.placement_gap = placement_gap  #: m, a placed object keeps this far from the others
+        self.edge_margin = edge_margin  #: m, and this far inside the shelf floor's edges
         self._walls = side_wall_polygons(workspace.depth, workspace.width,
                                          workspace.wall_thickness)
         self._states: dict[tuple, StateGeometry] = {}
@@ -249,7 +256,8 @@ class FootprintFeasibility:
         where no angle works.
 
         A cell works at theta_place when the object, turned by theta_place - theta_pick, lies
-        inside the workspace at least `placement_gap` from every other footprint, and the corridor
+        inside the workspace (`edge_margin` inside its edges) at least `placement_gap` from every
+        other footprint, and the corridor
         to the cell at theta_place misses the walls and every other object (so the placed object is
         pickable there in s'). Its width across is unchanged because it turns with the gripper.
         The least rotation wins.
@@ -258,7 +266,7 @@ class FootprintFeasibility:
         memo_key = (index, round(float(theta_pick), 9))
         if memo_key in g.place_memo:
             return g.place_memo[memo_key]
-        ws, gap = self.workspace, self.placement_gap
+        ws, gap, edge = self.workspace, self.placement_gap, self.edge_margin
         thetas, cells = ws.approach_angles, ws.cell_centres
         me = g.objects[index]
         others = [j for j in range(len(g.objects)) if j != index]
@@ -279,9 +287,9 @@ class FootprintFeasibility:
                 continue
             rotated = local @ rotation2d(thetas[k] - theta_pick).T
             polys = rotated[None, :, :] + cells[cand][:, None, :]  # (c, K, 2)
-            ok = ((polys[:, :, 0].min(axis=1) >= 0.0)
-                  & (polys[:, :, 0].max(axis=1) <= ws.depth)
-                  & (np.abs(polys[:, :, 1]).max(axis=1) <= ws.width / 2))
+            ok = ((polys[:, :, 0].min(axis=1) >= edge)
+                  & (polys[:, :, 0].max(axis=1) <= ws.depth - edge)
+                  & (np.abs(polys[:, :, 1]).max(axis=1) <= ws.width / 2 - edge))
             if other_polys is not None:
                 near = dist[cand] <= me.outer + other_outer[None, :] + gap + 1e-9
                 ci, oi = np.nonzero(near & ok[:, None])
@@ -309,6 +317,10 @@ class GeometricFeasibility(FootprintFeasibility):
     """Feasibility from the perceived point clouds only (hull of the centrally completed points)."""
 
     name = "geometric"
+
+    def __init__(self, workspace: Workspace, placement_gap: float = PERCEIVED_PLACEMENT_GAP,
+                 edge_margin: float = PERCEIVED_EDGE_MARGIN) -> None:
+        super().__init__(workspace, placement_gap, edge_margin)
 
     def object_geometry(self, obj: PlanObject) -> ObjectGeometry:
         polygon = perceived_hull(obj)

@@ -70,7 +70,7 @@ class NetFeasibility:
                  placement_gap: float | None = None) -> None:
         from tsad_drake.perception.prehensile_train import load_checkpoint
         from tsad_drake.planning.feasibility import GeometricFeasibility
-        from tsad_drake.planning.pointcloud_sim import DEFAULT_PLACEMENT_GAP
+        from tsad_drake.planning.pointcloud_sim import PERCEIVED_PLACEMENT_GAP
 
         self.workspace = workspace
         self.net, self.meta = load_checkpoint(weights)  # WeightsError (a UsageError) on bad files
@@ -81,7 +81,7 @@ class NetFeasibility:
         self.set_threshold = float(self.meta.get("set_threshold", self.block_threshold))
         if threads is not None:
             torch.set_num_threads(threads)
-        gap = DEFAULT_PLACEMENT_GAP if placement_gap is None else placement_gap
+        gap = PERCEIVED_PLACEMENT_GAP if placement_gap is None else placement_gap
         self.placement_model = GeometricFeasibility(workspace, gap)
         self.placement_gap = gap
         #: state key -> {(object, angle index): (reach, blockers)}
