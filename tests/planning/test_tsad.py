@@ -254,3 +254,62 @@ def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(sc
     first = again.peek()
     again.discard(first.object, first.x, first.y)
     assert again.pop() == expected[1]
+
+
+class _WithRolloutModel:
+    """A feasibility model whose rollouts draw actions with another (cheaper) model, as the
+    network's do with its point-cloud placement model."""
+
+    def __init__(self, own, rollout_model):
+        self._own, self.rollout_model = own, rollout_model
+
+    def __getattr__(self, name):
+        return getattr(self._own, name)
+
+
+def test_fast_rollouts_join_the_tree_only_as_actions_of_the_searchs_own_model(scenes):
+    from tsad_drake.planning.feasibility import angle_index
+    from tsad_drake.planning.tsad import EmptyCells, SubSearch
+
+    scenario, workspace, state = scenes[("1", 0)]
+    oracle = make_feasibility("oracle", scenario, workspace)
+    model = _WithRolloutModel(oracle, make_feasibility("geometric", scenario, workspace))
+    plan = plan_tsad(state, model, workspace, CONFIG, np.random.default_rng(0))
+    assert plan.success and plan_still_valid(state, plan.actions, plan.theta_star, oracle,
+                                             workspace)
+    world = WorldModel(scenario)
+    for action in plan.actions:
+        world.apply(action)
+    assert world.retrieve() and not world.fallen
+
+    # recheck: an object the search's model cannot pick ends the path; a pickable one is
+    # re-derived with the search's own angles and its end state judged on that model
+    k = angle_index(workspace.approach_angles, plan.theta_star)
+    search = SubSearch(state, k, model, workspace, CONFIG, np.random.default_rng(0),
+                       EmptyCells(workspace), 0)
+    assert search.rollout_model is model.rollout_model
+    stuck = [i for i, o in enumerate(state.objects)
+             if o.name != state.target and not oracle.pickable(state, i).any()]
+    free = [i for i, o in enumerate(state.objects)
+            if o.name != state.target and oracle.pickable(state, i).any()]
+    assert stuck and free
+    x, y = workspace.cell_centres[0]
+    bad = Action(state.objects[stuck[0]].name, 0.0, float(x), float(y), 0.0)
+    assert search.recheck(state, [(bad, simulate_pick_place(state, bad))]) is None
+    # the plan's first sub-search ends in a terminal state of a search rooted at `state`
+    moves = [a for a in plan.actions if a.sub_search == 0]
+    path, current = [], state
+    for a in moves:
+        skewed = dc.replace(a, theta_pick=a.theta_pick + 0.3, theta_place=a.theta_place + 0.3)
+        current = simulate_pick_place(current, skewed)
+        path.append((skewed, current))
+    redone = search.recheck(state, path)
+    assert redone is not None and len(redone) == len(moves)
+    current = state
+    for (again, after), a in zip(redone, moves, strict=True):
+        assert (again.object, again.x, again.y) == (a.object, a.x, a.y)
+        assert again.theta_pick != a.theta_pick + 0.3
+        k_pick = angle_index(workspace.approach_angles, again.theta_pick)
+        assert oracle.pickable(current, current.index(a.object))[k_pick]
+        current = after
+    assert search.reward(current)[1]

@@ -84,6 +84,8 @@ class NetFeasibility:
         gap = PERCEIVED_PLACEMENT_GAP if placement_gap is None else placement_gap
         self.placement_model = GeometricFeasibility(workspace, gap)
         self.placement_gap = gap
+        #: the cheap model TSAD's rollouts draw random actions with (`TSADConfig.fast_rollouts`)
+        self.rollout_model = self.placement_model
         #: state key -> {(object, angle index): (reach, blockers)}
         self._answers: dict[tuple, dict[tuple[int, int], tuple[bool, frozenset[int]]]] = {}
         self._clouds: dict[tuple, pdata.StateCloud] = {}

@@ -80,6 +80,12 @@ class TSADConfig:
     complete_plans: int = 3
     #: s, search time allowed after the first complete plan for finding shorter ones
     improve_time_s: float = 2.0
+    #: rollouts draw their random actions with the feasibility model's cheaper `rollout_model`
+    #: when it has one (the network: its point-cloud placement model), rewards still come from
+    #: the model itself, and a rollout that reaches a terminal state joins the tree only after
+    #: each of its actions is re-derived and checked on the model itself (`SubSearch.recheck`).
+    #: Rollouts were 86% of the network's search time; False asks the network at every step
+    fast_rollouts: bool = True
 
 
 class EmptyCells:
@@ -187,6 +193,9 @@ class SubSearch:
                  empty_cells: EmptyCells, initial_empty: int,
                  excluded: frozenset[tuple[str, float, float]] = frozenset()) -> None:
         self.feasibility, self.workspace, self.config, self.rng = feasibility, workspace, config, rng
+        #: the model rollouts draw their actions with (see `TSADConfig.fast_rollouts`)
+        self.rollout_model = (getattr(feasibility, "rollout_model", feasibility)
+                              if config.fast_rollouts else feasibility)
         self.excluded = excluded  #: action keys not allowed from the root
         self.k = theta_index
         self.theta = float(workspace.approach_angles[theta_index])
@@ -280,14 +289,14 @@ class SubSearch:
         """Random feasible actions from `node` to d_max; the path if it reaches a terminal state."""
         cfg = self.config
         state, path_actions, best = node.state, [], -math.inf
+        model = self.rollout_model
         for step in range(1, cfg.max_depth - node.depth + 1):
             action = None
             if self.rng.random() < cfg.rollout_bias:
-                action = random_action(self.feasibility, state, self.workspace, self.rng,
+                action = random_action(model, state, self.workspace, self.rng,
                                        self.theta, among=self.relevant(state))
             if action is None:
-                action = random_action(self.feasibility, state, self.workspace, self.rng,
-                                       self.theta)
+                action = random_action(model, state, self.workspace, self.rng, self.theta)
             if action is None:
                 break
             state = simulate_pick_place(state, action)
@@ -295,10 +304,32 @@ class SubSearch:
             reward, terminal = self.reward(state)
             best = max(best, reward - cfg.step_penalty * step)
             if terminal:
+                if model is not self.feasibility:
+                    path_actions = self.recheck(node.state, path_actions)
+                    if path_actions is None:  # not feasible on the search's own model
+                        return []
                 node.rollout_value = max(node.rollout_value, best)
                 return self.materialise(node, path_actions)
         node.rollout_value = max(node.rollout_value, best)
         return []
+
+    def recheck(self, state: PlanningState, path: list[tuple[Action, PlanningState]]
+                ) -> list[tuple[Action, PlanningState]] | None:
+        """A rollout path drawn with `rollout_model`, re-derived on the search's own model: each
+        action's theta_pick and theta_place chosen as an expansion would choose them (None when
+        the object cannot be picked or placed there), and the end state terminal. None if not."""
+        cells = self.workspace.cell_centres
+        checked = []
+        for action, _ in path:
+            i = state.index(action.object)
+            cell = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
+            redone = UntriedActions(self.feasibility, state, self.workspace, [],
+                                    self.theta).check(i, cell)
+            if redone is None:
+                return None
+            state = simulate_pick_place(state, redone)
+            checked.append((redone, state))
+        return checked if self.reward(state)[1] else None
 
     def materialise(self, node: Node, path: list[tuple[Action, PlanningState]]) -> list[Node]:
         """Add a rollout path that reached a terminal state to the tree (so it can be extracted)."""
