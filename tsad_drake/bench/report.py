@@ -142,6 +142,9 @@ def _target_lines(scenario: str, columns: dict[str, dict]) -> list[str]:
             if floor and sum(floor) / len(floor) > paper:
                 why = (f"; `optimal` itself needs {sum(floor) / len(floor):.2f} on the scenes it "
                        "solves: these scenes need more actions than the paper's")
+            # the paper does not say whether its count includes taking the target out
+            why += (f" (without the final retrieval {acts - 1:.2f}; the paper does not say "
+                    "whether its count includes it)")
         lines.append(f"- actions over successful episodes {acts:.2f} (paper {paper:.2f}): "
                      f"{_verdict(acts <= paper, f'{acts - paper:.2f}')}{why}")
     if opt is not None:
