@@ -81,3 +81,23 @@ def test_edge_margin_keeps_perceived_placements_off_the_floor_edges(workspace):
     assert not np.isnan(exact.place_options(state, 0, 0.0)[front_cell])
     assert np.isnan(margin.place_options(state, 0, 0.0)[front_cell])
     assert GeometricFeasibility(workspace).edge_margin > 0.0  # the perceived model's default
+
+
+def test_a_fitted_cylinders_hull_contains_its_circle_however_little_of_it_was_seen():
+    from tsad_drake.planning.pointcloud_sim import footprint_hull
+
+    r, centre = 0.032, np.array([0.2, 0.05])
+    arc = np.radians(np.linspace(160, 200, 5))  # 5 points of the front, 40 degrees of arc
+    pts = np.column_stack([centre[0] + r * np.cos(arc), centre[1] + r * np.sin(arc),
+                           np.full(5, 0.1)])
+    bare = PlanObject("c", pts, *centre, 0.0, origin=(*centre, 0.0))
+    fitted = PlanObject("c", pts, *centre, 0.0, origin=(*centre, 0.0), shape="cylinder", size=(r,))
+    angles = np.linspace(0, 2 * np.pi, 360, endpoint=False)
+    dirs = np.stack([np.cos(angles), np.sin(angles)])
+    support = ((footprint_hull(fitted) - centre) @ dirs).max(axis=0)  # per direction
+    assert support.min() >= r - 1e-9  # the whole circle is inside
+    assert support.max() <= r / np.cos(np.pi / 24) + 1e-9  # by at most the polygon's corners
+    assert ((footprint_hull(bare) - centre) @ dirs).max(axis=0).min() < 0.5 * r  # points: a sliver
+    # the polygon moves with the object
+    moved = move_object(fitted, 0.1, -0.1, 0.4)
+    assert ((footprint_hull(moved) - [0.1, -0.1]) @ dirs).max(axis=0).min() >= r - 1e-9

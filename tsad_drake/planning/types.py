@@ -39,6 +39,10 @@ class PlanObject:
     yaw: float  #: rad
     #: (x, y, yaw) as perceived; kept by the simulation so a model can recover the motion since
     origin: tuple[float, float, float] | None = None
+    #: fitted footprint model from perception, "cylinder" or "box" ("" when not estimated)
+    shape: str = ""
+    #: m, fitted (radius,) or (sx, sy) along yaw and across; () when not estimated
+    size: tuple[float, ...] = ()
 
     @property
     def pose(self) -> tuple[float, float, float]:
