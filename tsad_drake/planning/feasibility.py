@@ -32,6 +32,7 @@ from tsad_drake.planning.pointcloud_sim import (
     DEFAULT_PLACEMENT_GAP,
     PERCEIVED_EDGE_MARGIN,
     PERCEIVED_PLACEMENT_GAP,
+    inside_workspace,
     perceived_hull,
 )
 from tsad_drake.planning.types import FeasibilityModel, PlanningState, PlanObject, Workspace
@@ -257,9 +258,9 @@ class FootprintFeasibility:
 
         A cell works at theta_place when the object, turned by theta_place - theta_pick, lies
         inside the workspace (`edge_margin` inside its edges) at least `placement_gap` from every
-        other footprint, and the corridor
-        to the cell at theta_place misses the walls and every other object (so the placed object is
-        pickable there in s'). Its width across is unchanged because it turns with the gripper.
+        other footprint, and the corridor to the cell at theta_place misses the walls and every
+        other object (so the placed object is pickable there in s'). Its width across is
+        unchanged because it turns with the gripper.
         The least rotation wins.
         """
         g = self.geometry(state)
@@ -287,9 +288,7 @@ class FootprintFeasibility:
                 continue
             rotated = local @ rotation2d(thetas[k] - theta_pick).T
             polys = rotated[None, :, :] + cells[cand][:, None, :]  # (c, K, 2)
-            ok = ((polys[:, :, 0].min(axis=1) >= edge)
-                  & (polys[:, :, 0].max(axis=1) <= ws.depth - edge)
-                  & (np.abs(polys[:, :, 1]).max(axis=1) <= ws.width / 2 - edge))
+            ok = inside_workspace(polys, ws, edge)
             if other_polys is not None:
                 near = dist[cand] <= me.outer + other_outer[None, :] + gap + 1e-9
                 ci, oi = np.nonzero(near & ok[:, None])

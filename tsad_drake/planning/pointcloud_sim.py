@@ -17,9 +17,9 @@ from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspa
 
 #: m, default gap a placed object must keep from every other object's footprint
 DEFAULT_PLACEMENT_GAP = 0.005
-#: m, the gap the perceived models keep instead: perceived hulls are within 2.6 mm of the true
-#: footprints on 9 in 10 objects (`bench/hull_errors.py`), so 5 mm wastes the scarce free space
-#: the scenes turn on (measured on scenario 2: 0.83 success with 5 mm, 0.93 with 3 mm and
+#: m, the gap the perceived models keep instead: true footprints reach at most 1.9 mm past the
+#: perceived hulls on 9 objects in 10 (`bench/hull_errors.py`), so 5 mm wastes the scarce free
+#: space the scenes turn on (TSAD on scenario 2: 0.83 success with 5 mm, 0.97 with 3 mm and
 #: `PERCEIVED_EDGE_MARGIN`)
 PERCEIVED_PLACEMENT_GAP = 0.003
 #: m, how far inside the shelf floor's edges a perceived footprint must be placed: a long
@@ -88,10 +88,14 @@ def moved_polygon(polygon: np.ndarray, centre: tuple[float, float], x: float, y:
     return (polygon - np.asarray(centre)) @ rotation2d(rotation).T + np.array([x, y])
 
 
-def inside_workspace(polygon: np.ndarray, workspace: Workspace, gap: float = 0.0) -> bool:
-    """True when the footprint lies inside the shelf floor, `gap` away from the walls."""
-    return bool(polygon[:, 0].min() >= gap and polygon[:, 0].max() <= workspace.depth - gap
-                and np.abs(polygon[:, 1]).max() <= workspace.width / 2 - gap)
+def inside_workspace(polygon: np.ndarray, workspace: Workspace,
+                     gap: float = 0.0) -> bool | np.ndarray:
+    """True when the footprint (K, 2) lies inside the shelf floor, `gap` inside its edges; for
+    footprints (..., K, 2) an array of answers."""
+    x, y = polygon[..., 0], polygon[..., 1]
+    inside = ((x.min(axis=-1) >= gap) & (x.max(axis=-1) <= workspace.depth - gap)
+              & (np.abs(y).max(axis=-1) <= workspace.width / 2 - gap))
+    return inside if inside.ndim else bool(inside)
 
 
 def placement_valid(state: PlanningState, index: int, x: float, y: float, rotation: float,
