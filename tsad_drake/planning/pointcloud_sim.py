@@ -11,7 +11,13 @@ import dataclasses as dc
 
 import numpy as np
 
-from tsad_drake.geometry2d import convex_hull, convex_polygons_overlap_pairs, pad_polygons, rotation2d
+from tsad_drake.geometry2d import (
+    CIRCLE_VERTICES,
+    convex_hull,
+    convex_polygons_overlap_pairs,
+    pad_polygons,
+    rotation2d,
+)
 from tsad_drake.planning.state import completed_footprint_points
 from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspace
 
@@ -25,8 +31,9 @@ PERCEIVED_PLACEMENT_GAP = 0.003
 #: m, how far inside the shelf floor's edges a perceived footprint must be placed: a long
 #: rectangle's perceived hull can be a millimetre shorter than the box (its back is never seen)
 PERCEIVED_EDGE_MARGIN = 0.001
-#: support directions a perceived footprint hull is reduced to (a dense circle has a vertex per point)
-HULL_DIRECTIONS = 24
+#: support directions a perceived footprint hull is reduced to (a dense circle has a vertex per
+#: point); the circle polygon's vertex count, so a fitted cylinder's polygon keeps every vertex
+HULL_DIRECTIONS = CIRCLE_VERTICES
 
 
 def move_object(obj: PlanObject, x: float, y: float, rotation: float) -> PlanObject:

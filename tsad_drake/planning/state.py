@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tsad_drake.geometry2d import footprint_polygon
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import Scenario
@@ -56,29 +57,23 @@ def state_from_perception(scene: PerceivedScene) -> PlanningState:
     return PlanningState(tuple(objects), scene.target or "")
 
 
-#: vertices of the polygon that stands for a fitted cylinder's circle (its edges touch the circle;
-#: the same count and angles as the hull's support directions, so the hull keeps every vertex)
-CIRCLE_VERTICES = 24
-
-
 def completed_footprint_points(obj: PlanObject) -> np.ndarray:
-    """(2P (+ CIRCLE_VERTICES), 2) xy points of `obj` plus their reflection through its estimated
-    centre, plus, for an object perception fitted as a cylinder, a polygon around its fitted circle.
+    """(2P (+ K), 2) xy points of `obj` plus their reflection through its estimated centre, plus,
+    for an object perception fitted as a cylinder, the K vertices of its fitted circle's footprint.
 
     Cylinders and boxes are centrally symmetric about their centre, so the reflection of the
     front-side points recovers the unseen back half of the footprint. The seen points of a
     cylinder stop short of its silhouette (grazing rays; 0.3 mm at the median, 26 mm for one seen
     by 4 points: `bench/hull_errors.py`), while the circle fit's centre and radius are within
-    0.02 mm however little of the arc is seen; the polygon's edges touch that circle, so the
-    hull (reduced to `HULL_DIRECTIONS` support points at the same angles) contains it.
+    0.02 mm however little of the arc is seen. The circle enters as `footprint_polygon`'s
+    circumscribed polygon (the true footprints' own), whose vertices lie at the hull's support
+    directions (`CIRCLE_VERTICES` = `HULL_DIRECTIONS`), so the reduced hull contains the circle.
     """
     xy = obj.points[:, :2]
     centre = np.array([obj.x, obj.y])
     parts = [xy, 2.0 * centre - xy]
     if obj.shape == "cylinder" and obj.size:
-        angles = np.arange(CIRCLE_VERTICES) * 2 * np.pi / CIRCLE_VERTICES
-        r = obj.size[0] / np.cos(np.pi / CIRCLE_VERTICES)
-        parts.append(centre + r * np.stack([np.cos(angles), np.sin(angles)], axis=1))
+        parts.append(footprint_polygon("cylinder", obj.size, obj.x, obj.y, 0.0))
     return np.concatenate(parts)
 
 
