@@ -6,7 +6,8 @@ from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec, run_bench
 
 
 def _specs(seeds):
-    return [EpisodeSpec(scenario="1", seed=s, planner="gp3", feasibility="geometric")
+    # scenario 3: its seeds 0 and 1 generate in under a second (scenario 1 seed 0 takes ~13 s)
+    return [EpisodeSpec(scenario="3", seed=s, planner="gp3", feasibility="geometric")
             for s in seeds]
 
 
@@ -55,7 +56,7 @@ def test_rows_of_other_network_weights_are_run_again(tmp_path):
     from tsad_drake.bench.runner import _load_rows
     from tsad_drake.scenario import scene_digest
 
-    specs = [EpisodeSpec(scenario="1", seed=s, planner="tsad", feasibility="net") for s in (0, 1)]
+    specs = [EpisodeSpec(scenario="3", seed=s, planner="tsad", feasibility="net") for s in (0, 1)]
     rows_path = tmp_path / "net.json.rows.jsonl"
     rows = [{**dict(zip(SPEC_KEYS, spec.key())), "seed": spec.seed,
              "scene_digest": scene_digest(spec_scenario(spec)), "weights_digest": digest}

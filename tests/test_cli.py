@@ -36,7 +36,7 @@ def test_scene_writes_loadable_yaml(tmp_path, capsys):
 
 @pytest.fixture
 def overlapping_yaml(tmp_path):
-    scenario = generate_scenario("1", 0)
+    scenario = generate_scenario("3", 0)  # quick to generate (scenario 1 seed 0 takes ~13 s)
     scenario.objects[1].x, scenario.objects[1].y = scenario.objects[0].x, scenario.objects[0].y
     path = tmp_path / "overlap.yaml"
     save_scenario(scenario, path)
@@ -54,13 +54,13 @@ def test_bad_inputs_exit_2_with_one_line(tmp_path, capsys, overlapping_yaml):
         ["render", "--scenario", str(malformed), "--out", str(tmp_path / "r")],
         ["render", "--scenario", str(overlapping_yaml), "--out", str(tmp_path / "r")],
         ["render", "--scenario", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "r")],
-        ["scene", "--scenario", "1", "--out", str(blocker / "x" / "scene.yaml")],
-        ["render", "--scenario", "1", "--out", str(blocker / "dir")],
-        ["render", "--scenario", "1", "--segmentation", "magic", "--out", str(tmp_path / "r")],
-        ["plan", "--scenario", "1", "--planner", "astar", "--out", str(tmp_path / "p")],
-        ["plan", "--scenario", "1", "--planner", "tsad", "--max-actions", "0",
+        ["scene", "--scenario", "3", "--out", str(blocker / "x" / "scene.yaml")],
+        ["render", "--scenario", "3", "--out", str(blocker / "dir")],
+        ["render", "--scenario", "3", "--segmentation", "magic", "--out", str(tmp_path / "r")],
+        ["plan", "--scenario", "3", "--planner", "astar", "--out", str(tmp_path / "p")],
+        ["plan", "--scenario", "3", "--planner", "tsad", "--max-actions", "0",
          "--out", str(tmp_path / "p")],
-        ["bench", "--scenario", "1", "--planner", "tsad", "--episodes", "0",
+        ["bench", "--scenario", "3", "--planner", "tsad", "--episodes", "0",
          "--out", str(tmp_path / "b.json")],
         ["bench", "--scenario", str(overlapping_yaml), "--planner", "tsad",
          "--out", str(tmp_path / "b.json")],

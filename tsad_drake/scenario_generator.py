@@ -100,12 +100,23 @@ class GeneratorConfig:
     #: shapes must find a plan within it); 0 skips the check (training data needs no guarantee)
     solvable_nodes: int = 1000
 
+#: scenario 1's blockers in front of the target, calibrated to the paper's difficulty. With the
+#: default 2-4 its scenes needed more actions than the paper's: `optimal` 4.23 on the bench seeds,
+#: while the paper's TSAD took 3.72 (so the paper's scenes need at most that on average), and GP3
+#: succeeded less often (0.17 with the oracle, paper 0.33). With 2-3, seeds 0-59: `optimal` 3.63,
+#: GP3 0.25 (`python -m tsad_drake.bench.difficulty`). Scenarios 2 and 3 already match the paper
+#: on both (optimal 3.90 / 3.97 <= its TSAD's 3.96 / 4.71; GP3 0.20 / 0.30 vs 0.17 / 0.20).
+SCENARIO1_BLOCKERS = (2, 3)
+
+
 def scenario_defaults(name: str) -> tuple[ShelfConfig, GeneratorConfig]:
     """Shelf and generator settings of a built-in scenario."""
     if name == "real":
         return (ShelfConfig(depth=0.40, width=0.28, height=0.36),
                 GeneratorConfig(num_objects=5, num_blockers=(1, 2)))
-    if name in ("1", "2", "3"):
+    if name == "1":
+        return ShelfConfig(), dc.replace(GeneratorConfig(), num_blockers=SCENARIO1_BLOCKERS)
+    if name in ("2", "3"):
         return ShelfConfig(), GeneratorConfig()
     raise ScenarioError(f"unknown scenario {name!r}: use one of {', '.join(BUILTIN_SCENARIOS)} "
                         "or a scenario YAML file")

@@ -13,6 +13,7 @@ from tsad_drake.perception.pose import (
     fit_circle,
     fit_rectangle_yaw,
 )
+from tsad_drake.perception.prehensile_data import training_generator
 from tsad_drake.scenario_generator import generate_scenario
 
 #: stated tolerances for visible objects (>= 100 fused points) on noise-free ray-cast scenes
@@ -74,7 +75,8 @@ def test_round_and_flat_segments_are_told_apart():
 def scene_errors():
     rows = []
     for name, seed in [("1", 0), ("2", 0), ("3", 0), ("2", 3)]:
-        scenario = generate_scenario(name, seed)
+        # the network's training scenes (see tests/perception/test_observe.py's fixture)
+        scenario = generate_scenario(name, seed, config=training_generator(name))
         rows += pose_errors(scenario, observe_raycast(scenario))
     return rows
 

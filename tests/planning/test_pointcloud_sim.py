@@ -83,6 +83,23 @@ def test_edge_margin_keeps_perceived_placements_off_the_floor_edges(workspace):
     assert GeometricFeasibility(workspace).edge_margin > 0.0  # the perceived model's default
 
 
+def test_fit_margin_refuses_perceived_widths_just_under_the_stroke(workspace):
+    from tsad_drake.planning.feasibility import GeometricFeasibility
+
+    limit = workspace.stroke - workspace.grasp_margin
+    radius = (limit - 0.0005) / 2  # seen 0.5 mm narrower than the grasp limit at every angle
+    state = PlanningState((_disc("a", 0.15, 0.0, r=radius, n=400), _disc("t", 0.25, 0.18, r=0.02)),
+                          "t")
+    exact = GeometricFeasibility(workspace, fit_margin=0.0)
+    margin = GeometricFeasibility(workspace, fit_margin=0.001)
+    assert exact.reachable(state, 0).any()
+    assert not margin.reachable(state, 0).any() and not margin.pickable(state, 0).any()
+    # another name: hulls and geometry are cached by name and pose
+    narrow = PlanningState((_disc("b", 0.15, 0.0, r=radius - 0.001, n=400), state.objects[1]), "t")
+    assert margin.reachable(narrow, 0).any()  # 2.5 mm under the limit still fits
+    assert GeometricFeasibility(workspace).fit_margin > 0.0  # the perceived model's default
+
+
 def test_a_fitted_cylinders_hull_contains_its_circle_however_little_of_it_was_seen():
     from tsad_drake.planning.pointcloud_sim import footprint_hull
 

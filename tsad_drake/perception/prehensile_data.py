@@ -71,6 +71,19 @@ def scenario_type(seed: int) -> str:
     return SCENARIO_TYPES[seed % len(SCENARIO_TYPES)]
 
 
+def training_generator(name: str):
+    """Generator settings of the training scenes of scenario type `name`: the scenario's own,
+    with no solvability check (labels need none, and it is costly), and scenario 1 with the
+    generator's default 2-4 blockers, as the shipped weights were trained on before scenario 1's
+    bench scenes were calibrated to 2-3 (`SCENARIO1_BLOCKERS`; a superset of them)."""
+    from tsad_drake.scenario_generator import GeneratorConfig, scenario_defaults
+
+    config = scenario_defaults(name)[1]
+    if name == "1":
+        config = dc.replace(config, num_blockers=GeneratorConfig.num_blockers)
+    return dc.replace(config, solvable_nodes=0)
+
+
 def _flatten(xy: np.ndarray, z: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, ...]:
     """Keep one point per (object, GRID xy cell): the cell centre and the largest height."""
     if len(xy) == 0:
@@ -331,12 +344,10 @@ def scene_states(seed: int, observer: str = "raycast", relocations: int = 2,
     """[(kind, state, oracle)] for scene `seed`: observed, relocated, re-observed."""
     from tsad_drake.planning.feasibility import OracleFeasibility
     from tsad_drake.planning.state import make_workspace
-    from tsad_drake.scenario_generator import generate_scenario, scenario_defaults
+    from tsad_drake.scenario_generator import generate_scenario
 
     name = scenario_type(seed)
-    # labels need no solvable scene: skipping the (costly) solvability check keeps data fast
-    # and the same as the shipped weights were trained on
-    config = dc.replace(scenario_defaults(name)[1], solvable_nodes=0)
+    config = training_generator(name)
     scenario = generate_scenario(name, seed, config=config)
     workspace = make_workspace(scenario)
     oracle = OracleFeasibility(scenario, workspace)

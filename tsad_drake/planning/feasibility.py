@@ -31,6 +31,7 @@ from tsad_drake.geometry2d import (
 from tsad_drake.planning.pointcloud_sim import (
     DEFAULT_PLACEMENT_GAP,
     PERCEIVED_EDGE_MARGIN,
+    PERCEIVED_FIT_MARGIN,
     PERCEIVED_PLACEMENT_GAP,
     inside_workspace,
     perceived_hull,
@@ -176,10 +177,11 @@ class FootprintFeasibility:
     name = "footprint"
 
     def __init__(self, workspace: Workspace, placement_gap: float = DEFAULT_PLACEMENT_GAP,
-                 edge_margin: float = 0.0) -> None:
+                 edge_margin: float = 0.0, fit_margin: float = 0.0) -> None:
         self.workspace = workspace
         self.placement_gap = placement_gap  #: m, a placed object keeps this far from the others
         self.edge_margin = edge_margin  #: m, and this far inside the shelf floor's edges
+        self.fit_margin = fit_margin  #: m, graspable widths stay this far under the stroke's limit
         self._walls = side_wall_polygons(workspace.depth, workspace.width,
                                          workspace.wall_thickness)
         self._states: dict[tuple, StateGeometry] = {}
@@ -244,7 +246,7 @@ class FootprintFeasibility:
         """(A,) the object fits the stroke and its corridor misses the walls (ignoring objects)."""
         geom, wall_clear = self._object_entry(state.objects[index])
         ws = self.workspace
-        return wall_clear & (geom.widths <= ws.stroke - ws.grasp_margin + 1e-9)
+        return wall_clear & (geom.widths <= ws.stroke - ws.grasp_margin - self.fit_margin + 1e-9)
 
     def pickable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) object `index` can be picked at each angle: reachable with a clear corridor."""
@@ -318,8 +320,9 @@ class GeometricFeasibility(FootprintFeasibility):
     name = "geometric"
 
     def __init__(self, workspace: Workspace, placement_gap: float = PERCEIVED_PLACEMENT_GAP,
-                 edge_margin: float = PERCEIVED_EDGE_MARGIN) -> None:
-        super().__init__(workspace, placement_gap, edge_margin)
+                 edge_margin: float = PERCEIVED_EDGE_MARGIN,
+                 fit_margin: float = PERCEIVED_FIT_MARGIN) -> None:
+        super().__init__(workspace, placement_gap, edge_margin, fit_margin)
 
     def object_geometry(self, obj: PlanObject) -> ObjectGeometry:
         polygon = perceived_hull(obj)
