@@ -211,34 +211,39 @@ def test_plan_check_accepts_the_plan_and_rejects_a_cut_or_broken_one(scenes, pla
 
 
 @pytest.mark.parametrize("model_name", ["oracle", "geometric"])
-def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(scenes, model_name):
-    from tsad_drake.planning.actions import (
-        SAME_PLACE,
-        UntriedActions,
-        choose_theta_pick,
-        place_options,
-    )
+def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(model_name):
+    from tsad_drake.planning.actions import SAME_PLACE, UntriedActions, place_options
+    from tsad_drake.planning.feasibility import approach_order
     from tsad_drake.planning.types import Action
 
-    scenario, workspace, state = scenes[("1", 0)]
+    scenario = load_scene("2", 3)  # obj0 reaches its useful cell from another pick angle only
+    workspace = make_workspace(scenario)
+    state = state_from_perception(observe_raycast(scenario).scene)
     model = make_feasibility(model_name, scenario, workspace)
     movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
     cells = range(len(workspace.cell_centres))
     candidates = [(i, c) for i in movable for c in cells]
     order = np.random.default_rng(0).permutation(len(candidates))
     candidates = [candidates[j] for j in order]
-    eager = {}  # enumerated independently: theta_pick, then every cell from place_options
+    # enumerated independently: per cell, the first pickable angle (nearest 0) from which
+    # place_options has a placement there
+    eager = {}
+    angles = workspace.approach_angles
+    second_choice = 0  # cells reached only from a pick angle other than the nearest one
     for i in movable:
-        theta_pick = choose_theta_pick(model, state, i, workspace)
-        if theta_pick is None:
-            continue
         obj = state.objects[i]
-        options = place_options(model, state, i, theta_pick, workspace)
-        for c in np.nonzero(np.isfinite(options))[0]:
-            x, y = (float(v) for v in workspace.cell_centres[c])
-            if np.hypot(x - obj.x, y - obj.y) >= SAME_PLACE:
-                eager[(obj.name, x, y)] = Action(obj.name, theta_pick, x, y, float(options[c]))
+        pickable = model.pickable(state, i)
+        picks = [float(angles[k]) for k in approach_order(angles, 0.0) if pickable[k]]
+        for n, theta_pick in enumerate(picks):
+            options = place_options(model, state, i, theta_pick, workspace)
+            for c in np.nonzero(np.isfinite(options))[0]:
+                x, y = (float(v) for v in workspace.cell_centres[c])
+                if np.hypot(x - obj.x, y - obj.y) >= SAME_PLACE and (obj.name, x, y) not in eager:
+                    eager[(obj.name, x, y)] = Action(obj.name, theta_pick, x, y,
+                                                     float(options[c]))
+                    second_choice += n > 0
     assert eager, "the scene has feasible actions"
+    assert second_choice, "some cell admits the object only from another pick angle"
     expected = []  # the eager list filtered in the candidates' drawing order (from the end)
     for i, c in reversed(candidates):
         x, y = workspace.cell_centres[c]
@@ -313,3 +318,88 @@ def test_fast_rollouts_join_the_tree_only_as_actions_of_the_searchs_own_model(sc
         assert oracle.pickable(current, current.index(a.object))[k_pick]
         current = after
     assert search.reward(current)[1]
+
+
+def test_a_cell_reached_only_from_another_pick_angle_is_an_action():
+    """Scenario 2 seed 3: the one relocation that frees the target (obj0, a long box, to the
+    front-right cell, turned by 20 degrees) cannot be made when obj0 is picked at the retrieval
+    angle (10 degrees), only from 0 or -10: the action set takes the pick angle per cell, and
+    TSAD finds the one-relocation plan that `optimal` finds."""
+    from tsad_drake.planning.actions import UntriedActions, place_options
+    from tsad_drake.planning.feasibility import angle_index
+
+    scenario = load_scene("2", 3)
+    workspace = make_workspace(scenario)
+    state = state_from_perception(observe_raycast(scenario).scene)
+    oracle = make_feasibility("oracle", scenario, workspace)
+    i = state.index("obj0")
+    cells = workspace.cell_centres
+    cell = int(np.argmin(np.hypot(cells[:, 0] - 0.06625, cells[:, 1] + 0.1075)))
+    prefer = np.radians(10.0)
+    assert np.isnan(place_options(oracle, state, i, prefer, workspace)[cell])
+    action = UntriedActions(oracle, state, workspace, [], prefer).check(i, cell)
+    assert action is not None and not np.isclose(action.theta_pick, prefer)
+    assert oracle.pickable(state, i)[angle_index(workspace.approach_angles, action.theta_pick)]
+    after = simulate_pick_place(state, action)
+    assert oracle.pickable(after, i)[angle_index(workspace.approach_angles, action.theta_place)]
+
+    plan = plan_tsad(state, oracle, workspace, CONFIG, np.random.default_rng(3))
+    assert plan.success and len(plan.actions) == 1 and plan.actions[0].object == "obj0"
+    world = WorldModel(scenario)
+    world.apply(plan.actions[0])
+    assert world.retrieve() and not world.fallen
+
+
+@pytest.mark.parametrize("key", SOLVED)
+def test_shortened_plans_are_split_into_sub_searches_afresh(key, scenes, plans):
+    from tsad_drake.planning.plan_check import regroup, shorten_plan
+
+    scenario, workspace, state = scenes[key]
+    plan = plans[key]
+    oracle = make_feasibility("oracle", scenario, workspace)
+    flat = [dc.replace(a, sub_search=0) for a in plan.actions]
+    regrouped = regroup(state, flat, plan.theta_star, oracle, workspace)
+    # the labels a valid plan splits into meet the termination conditions (plan_check checks them)
+    assert regrouped is not None and plan_still_valid(state, regrouped, plan.theta_star, oracle,
+                                                      workspace)
+    if len(plan.actions) > 1:
+        assert regrouped[-1].sub_search > 0
+    # a detour (the first object moved somewhere else first) is dropped again
+    cells = workspace.cell_centres
+    first = plan.actions[0]
+    i = state.index(first.object)
+    from tsad_drake.planning.actions import object_actions
+
+    detours = [a for a in object_actions(oracle, state, i, workspace, first.theta_pick)
+               if (a.x, a.y) != (first.x, first.y)]
+    assert detours and len(cells) > 1
+    detour = dc.replace(detours[0], sub_search=0)
+    longer = [detour, dc.replace(first, theta_pick=detour.theta_place), *plan.actions[1:]]
+    shortened = shorten_plan(state, longer, plan.theta_star, oracle, workspace)
+    assert len(shortened) <= len(plan.actions)
+    assert plan_still_valid(state, shortened, plan.theta_star, oracle, workspace)
+    world = WorldModel(scenario)
+    for action in shortened:
+        world.apply(action)
+    assert world.retrieve() and not world.fallen
+
+
+def test_a_sub_search_offers_distinct_terminal_states_best_first(scenes):
+    from tsad_drake.planning.feasibility import angle_index
+    from tsad_drake.planning.tsad import EmptyCells, SubSearch, optimal_angle
+
+    scenario, workspace, state = scenes[("1", 0)]
+    oracle = make_feasibility("oracle", scenario, workspace)
+    k = angle_index(workspace.approach_angles, optimal_angle(state, oracle, workspace))
+    search = SubSearch(state, k, oracle, workspace, CONFIG, np.random.default_rng(0),
+                       EmptyCells(workspace), 0)
+    search.run(time.perf_counter() + 20.0)
+    extracted = search.extract()
+    branches = search.alternatives(3)
+    assert 1 <= len(branches) <= 3 and branches[0][0] == extracted
+    assert len({reached.key() for _, reached in branches}) == len(branches)
+    for actions, reached in branches:
+        current = state
+        for action in actions:
+            current = simulate_pick_place(current, action)
+        assert current.key() == reached.key() and search.reward(reached)[1]

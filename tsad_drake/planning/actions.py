@@ -1,10 +1,10 @@
 """Pick-and-place actions: theta_pick / theta_place from a feasibility model (paper IV-D), action sets.
 
 The search picks {n, x, y}; theta_pick is an angle where object n is pickable in s (nearest the
-preferred angle, the retrieval angle or 0), theta_place one where the moved object is pickable in
-the next state s' (least rotation). Models with a batched `place_options` (the footprint models)
-answer all cells at once; any other FeasibilityModel is asked state by state through the
-point-cloud simulation.
+preferred angle, the retrieval angle or 0, among those from which cell (x, y) admits a
+placement), theta_place one where the moved object is pickable in the next state s' (least
+rotation). Models with a batched `place_options` (the footprint models) answer all cells at
+once; any other FeasibilityModel is asked state by state through the point-cloud simulation.
 """
 
 from __future__ import annotations
@@ -19,14 +19,19 @@ from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, W
 SAME_PLACE = 0.01
 
 
+def pick_angles(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                workspace: Workspace, prefer: float = 0.0) -> list[float]:
+    """The angles at which object `index` is pickable in `state`, nearest `prefer` first."""
+    ok = feasibility.pickable(state, index)
+    return [float(workspace.approach_angles[k])
+            for k in approach_order(workspace.approach_angles, prefer) if ok[k]]
+
+
 def choose_theta_pick(feasibility: FeasibilityModel, state: PlanningState, index: int,
                       workspace: Workspace, prefer: float = 0.0) -> float | None:
     """An angle at which object `index` is pickable in `state` (nearest `prefer`), else None."""
-    ok = feasibility.pickable(state, index)
-    for k in approach_order(workspace.approach_angles, prefer):
-        if ok[k]:
-            return float(workspace.approach_angles[k])
-    return None
+    angles = pick_angles(feasibility, state, index, workspace, prefer)
+    return angles[0] if angles else None
 
 
 def place_options(feasibility: FeasibilityModel, state: PlanningState, index: int,
@@ -54,8 +59,50 @@ def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: i
                    workspace: Workspace, prefer: float = 0.0) -> list[Action]:
     """Every feasible pick-and-place of object `index` to a grid cell (cell order): the cells
     `UntriedActions.check` accepts."""
-    check = UntriedActions(feasibility, state, workspace, [], prefer).check
-    return [a for c in range(len(workspace.cell_centres)) if (a := check(index, c)) is not None]
+    untried = UntriedActions(feasibility, state, workspace, [], prefer)
+    if getattr(feasibility, "place_options", None) is not None:  # every cell at once
+        theta_pick, theta_place = untried.cell_moves(index)
+        obj, cells = state.objects[index], workspace.cell_centres
+        return [Action(obj.name, float(theta_pick[c]), float(cells[c, 0]), float(cells[c, 1]),
+                       float(theta_place[c])) for c in np.flatnonzero(np.isfinite(theta_place))]
+    return [a for c in range(len(workspace.cell_centres))
+            if (a := untried.check(index, c)) is not None]
+
+
+def cell_moves(feasibility: FeasibilityModel, state: PlanningState, index: int,
+               workspace: Workspace, angles: list[float]) -> tuple[np.ndarray, np.ndarray]:
+    """(C,) theta_pick and (C,) theta_place per grid cell for moving object `index` (nan where
+    no move): `pick_place_angles` for every cell at once, from the model's batched
+    `place_options`; a cell within `SAME_PLACE` of the object's centre is no move."""
+    cells = workspace.cell_centres
+    theta_pick = np.full(len(cells), np.nan)
+    theta_place = np.full(len(cells), np.nan)
+    for angle in angles:
+        options = place_options(feasibility, state, index, angle, workspace)
+        new = np.isnan(theta_place) & np.isfinite(options)
+        theta_pick[new], theta_place[new] = angle, options[new]
+    obj = state.objects[index]
+    same = np.hypot(cells[:, 0] - obj.x, cells[:, 1] - obj.y) < SAME_PLACE
+    theta_pick[same] = theta_place[same] = np.nan
+    return theta_pick, theta_place
+
+
+def pick_place_angles(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                      cell: int, workspace: Workspace, angles: list[float]
+                      ) -> tuple[float, float] | None:
+    """(theta_pick, theta_place) moving object `index` to grid cell `cell`: the first of its pick
+    `angles` (see `pick_angles`) from which the cell admits a placement, or None.
+
+    The object turns with the gripper by theta_place - theta_pick, so the pick angle decides
+    which orientations a cell can take it in: a long box that fits a cell only turned by 20
+    degrees needs a pick angle 20 degrees from a valid place angle (scenario 2 seed 3: obj0's
+    one useful cell works picked at 0 or -10 degrees, not at the retrieval angle of 10).
+    """
+    for theta_pick in angles:
+        theta_place = place_option(feasibility, state, index, theta_pick, cell, workspace)
+        if theta_place is not None:
+            return theta_pick, theta_place
+    return None
 
 
 def place_option(feasibility: FeasibilityModel, state: PlanningState, index: int,
@@ -90,25 +137,41 @@ class UntriedActions:
             feasibility, state, workspace, prefer)
         self._candidates = candidates
         self._next: Action | None = None
-        self._theta_pick: dict[int, float | None] = {}
+        self._pick_angles: dict[int, list[float]] = {}
+        self._moves: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._batched = getattr(feasibility, "place_options", None) is not None
+
+    def pick_angles(self, index: int) -> list[float]:
+        """`pick_angles` of object `index` (memoised)."""
+        if index not in self._pick_angles:
+            self._pick_angles[index] = pick_angles(self.feasibility, self.state, index,
+                                                   self.workspace, self.prefer)
+        return self._pick_angles[index]
+
+    def cell_moves(self, index: int) -> tuple[np.ndarray, np.ndarray]:
+        """`cell_moves` of object `index` (memoised; models with a batched `place_options`)."""
+        if index not in self._moves:
+            self._moves[index] = cell_moves(self.feasibility, self.state, index, self.workspace,
+                                            self.pick_angles(index))
+        return self._moves[index]
 
     def check(self, index: int, cell: int) -> Action | None:
         """The action moving object `index` to cell `cell`, or None when it is infeasible."""
-        if index not in self._theta_pick:
-            self._theta_pick[index] = choose_theta_pick(self.feasibility, self.state, index,
-                                                        self.workspace, self.prefer)
-        theta_pick = self._theta_pick[index]
-        if theta_pick is None:
-            return None
         obj = self.state.objects[index]
         x, y = self.workspace.cell_centres[cell]
+        if self._batched:
+            theta_pick, theta_place = self.cell_moves(index)
+            if np.isnan(theta_place[cell]):
+                return None
+            return Action(obj.name, float(theta_pick[cell]), float(x), float(y),
+                          float(theta_place[cell]))
         if np.hypot(x - obj.x, y - obj.y) < SAME_PLACE:
             return None
-        theta_place = place_option(self.feasibility, self.state, index, theta_pick, cell,
-                                   self.workspace)
-        if theta_place is None:
+        angles = pick_place_angles(self.feasibility, self.state, index, cell, self.workspace,
+                                   self.pick_angles(index))
+        if angles is None:
             return None
-        return Action(obj.name, theta_pick, float(x), float(y), theta_place)
+        return Action(obj.name, angles[0], float(x), float(y), angles[1])
 
     def peek(self) -> Action | None:
         """The next feasible action (drawn, not yet taken), or None when none is left."""
@@ -152,16 +215,14 @@ def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace
             if actions:
                 return actions[int(rng.integers(len(actions)))]
             continue
-        theta_pick = choose_theta_pick(feasibility, state, int(i), workspace, prefer)
-        if theta_pick is None:
-            continue
         obj = state.objects[int(i)]
         cells = workspace.cell_centres
         order = [int(c) for c in rng.permutation(len(cells))
                  if np.hypot(cells[c, 0] - obj.x, cells[c, 1] - obj.y) >= SAME_PLACE]
-        found = first_option(state, int(i), theta_pick, order)
-        if found is not None:
-            c, theta_place = found
-            return Action(obj.name, theta_pick, float(cells[c, 0]), float(cells[c, 1]),
-                          float(theta_place))
+        for theta_pick in pick_angles(feasibility, state, int(i), workspace, prefer):
+            found = first_option(state, int(i), theta_pick, order)
+            if found is not None:
+                c, theta_place = found
+                return Action(obj.name, theta_pick, float(cells[c, 0]), float(cells[c, 1]),
+                              float(theta_place))
     return None

@@ -1,14 +1,16 @@
 """Re-checking and shortening plans on a state, with the feasibility model and the point-cloud simulation.
 
 `replay_plan` re-derives a plan's actions on a state: each object must be pickable (at its recorded
-theta_pick, else the nearest angle where it is), each placement cell valid with a pickable
-theta_place, the target clear and pickable at theta* at the end, and, at the end of each sub-search's
-actions, TSAD's two termination conditions (R shrank, nothing new in it).
+theta_pick, else the nearest angle where it is and the cell admits a placement), each placement
+cell valid with a pickable theta_place, the target clear and pickable at theta* at the end, and,
+at the end of each sub-search's actions, TSAD's two termination conditions (R shrank, nothing new
+in it).
 
 The closed loop uses it to keep the rest of the last plan while a new observation still admits it
 (a re-plan would otherwise wander off to a different, often longer plan); `shorten_plan` uses it to
 drop actions a search's random rollouts left in a plan (a detour, an object moved twice) while the
-plan stays valid, like shortcutting a sampled path.
+plan stays valid, like shortcutting a sampled path, and `regroup` splits the shorter plan into
+sub-searches again.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import dataclasses as dc
 
 import numpy as np
 
-from tsad_drake.planning.actions import choose_theta_pick, place_options
+from tsad_drake.planning.actions import pick_angles, pick_place_angles
 from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
@@ -40,8 +42,12 @@ def rearrangement_set(state: PlanningState, feasibility: FeasibilityModel, k: in
 
 
 def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
-                feasibility: FeasibilityModel, workspace: Workspace) -> list[Action] | None:
-    """`actions` re-derived on `state` (theta_pick / theta_place may change), or None if invalid."""
+                feasibility: FeasibilityModel, workspace: Workspace,
+                groups: bool = True) -> list[Action] | None:
+    """`actions` re-derived on `state` (theta_pick / theta_place may change), or None if invalid.
+
+    With `groups` False the termination conditions at the ends of the actions' sub-searches are
+    not checked (see `regroup`)."""
     names = {o.name for o in state.objects}
     if state.target not in names:
         return None
@@ -53,18 +59,17 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
         if action.object not in names or action.object == state.target:
             return None
         i = current.index(action.object)
-        theta_pick = choose_theta_pick(feasibility, current, i, workspace, action.theta_pick)
-        if theta_pick is None:
-            return None
         c = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
-        theta_place = place_options(feasibility, current, i, theta_pick, workspace)[c]
-        if not np.isfinite(theta_place):
+        angles = pick_place_angles(feasibility, current, i, c, workspace,
+                                   pick_angles(feasibility, current, i, workspace,
+                                               action.theta_pick))
+        if angles is None:
             return None
-        step = dc.replace(action, theta_pick=theta_pick, x=float(cells[c, 0]), y=float(cells[c, 1]),
-                          theta_place=float(theta_place))
+        step = dc.replace(action, theta_pick=angles[0], x=float(cells[c, 0]),
+                          y=float(cells[c, 1]), theta_place=float(angles[1]))
         current = simulate_pick_place(current, step)
         out.append(step)
-        if n + 1 == len(actions) or actions[n + 1].sub_search != action.sub_search:
+        if groups and (n + 1 == len(actions) or actions[n + 1].sub_search != action.sub_search):
             now = rearrangement_set(current, feasibility, k)
             if not (now < group_start):  # termination conditions: R shrank, nothing new in it
                 return None
@@ -73,6 +78,23 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
     if feasibility.blockers(current, t)[k] or not feasibility.pickable(current, t)[k]:
         return None
     return out
+
+
+def regroup(state: PlanningState, actions: list[Action], theta_star: float,
+            feasibility: FeasibilityModel, workspace: Workspace) -> list[Action] | None:
+    """`actions` with sub-search labels that meet TSAD's termination conditions: a sub-search
+    ends at the first state whose R_{theta*} is a proper subset of R at its start (some member
+    left, nothing new came in). Any plan that clears the target splits this way (the paper's
+    Theorem 1 argument); None when actions trail after the last such state."""
+    k = angle_index(workspace.approach_angles, theta_star)
+    current, start, group, out = state, rearrangement_set(state, feasibility, k), 0, []
+    for action in actions:
+        current = simulate_pick_place(current, action)
+        out.append(dc.replace(action, sub_search=group))
+        now = rearrangement_set(current, feasibility, k)
+        if now < start:
+            group, start = group + 1, now
+    return out if not actions or out[-1].sub_search < group else None
 
 
 def plan_still_valid(state: PlanningState, actions: list[Action], theta_star: float,
@@ -97,7 +119,10 @@ def shorten_plan(state: PlanningState, actions: list[Action], theta_star: float,
                  excluded: frozenset[tuple[str, float, float]] = frozenset()) -> list[Action]:
     """Greedily drop or merge actions while the plan stays valid; `actions` if none can go.
 
-    A shortened plan never starts with an `excluded` relocation (see `action_key`).
+    A shorter plan only has to be feasible and clear the target: its sub-search labels are
+    derived afresh (`regroup`), so an action can go even when the search's own split of the
+    plan needed it. A shortened plan never starts with an `excluded` relocation (see
+    `action_key`).
     """
     current = actions
     improved = True
@@ -106,7 +131,10 @@ def shorten_plan(state: PlanningState, actions: list[Action], theta_star: float,
         for candidate in _candidates(current):
             if candidate and action_key(candidate[0]) in excluded:
                 continue
-            replayed = replay_plan(state, candidate, theta_star, feasibility, workspace)
+            replayed = replay_plan(state, candidate, theta_star, feasibility, workspace,
+                                   groups=False)
+            if replayed is not None:
+                replayed = regroup(state, replayed, theta_star, feasibility, workspace)
             if replayed is not None:
                 current, improved = replayed, True
                 break
