@@ -19,7 +19,7 @@ import dataclasses as dc
 
 import numpy as np
 
-from tsad_drake.planning.actions import pick_angles, pick_place_angles
+from tsad_drake.planning.actions import SAME_PLACE, pick_angles, pick_place_angles
 from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
@@ -60,6 +60,9 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
             return None
         i = current.index(action.object)
         c = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
+        moved = current.objects[i]
+        if np.hypot(cells[c, 0] - moved.x, cells[c, 1] - moved.y) < SAME_PLACE:
+            return None  # no move (a merge of two moves can end where the object already is)
         angles = pick_place_angles(feasibility, current, i, c, workspace,
                                    pick_angles(feasibility, current, i, workspace,
                                                action.theta_pick))
