@@ -19,7 +19,7 @@ import dataclasses as dc
 
 import numpy as np
 
-from tsad_drake.planning.actions import SAME_PLACE, pick_angles, pick_place_angles
+from tsad_drake.planning.actions import UntriedActions
 from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
@@ -60,16 +60,12 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
             return None
         i = current.index(action.object)
         c = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
-        moved = current.objects[i]
-        if np.hypot(cells[c, 0] - moved.x, cells[c, 1] - moved.y) < SAME_PLACE:
-            return None  # no move (a merge of two moves can end where the object already is)
-        angles = pick_place_angles(feasibility, current, i, c, workspace,
-                                   pick_angles(feasibility, current, i, workspace,
-                                               action.theta_pick))
-        if angles is None:
+        # the search's own rule (pick angle nearest the recorded one that reaches the cell; a
+        # cell where the object already is is no move: a merge of two moves can end there)
+        redone = UntriedActions(feasibility, current, workspace, [], action.theta_pick).check(i, c)
+        if redone is None:
             return None
-        step = dc.replace(action, theta_pick=angles[0], x=float(cells[c, 0]),
-                          y=float(cells[c, 1]), theta_place=float(angles[1]))
+        step = dc.replace(redone, sub_search=action.sub_search)
         current = simulate_pick_place(current, step)
         out.append(step)
         if groups and (n + 1 == len(actions) or actions[n + 1].sub_search != action.sub_search):
