@@ -58,15 +58,9 @@ def place_options(feasibility: FeasibilityModel, state: PlanningState, index: in
 def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: int,
                    workspace: Workspace, prefer: float = 0.0) -> list[Action]:
     """Every feasible pick-and-place of object `index` to a grid cell (cell order): the cells
-    `UntriedActions.check` accepts."""
-    untried = UntriedActions(feasibility, state, workspace, [], prefer)
-    if getattr(feasibility, "place_options", None) is not None:  # every cell at once
-        theta_pick, theta_place = untried.cell_moves(index)
-        obj, cells = state.objects[index], workspace.cell_centres
-        return [Action(obj.name, float(theta_pick[c]), float(cells[c, 0]), float(cells[c, 1]),
-                       float(theta_place[c])) for c in np.flatnonzero(np.isfinite(theta_place))]
-    return [a for c in range(len(workspace.cell_centres))
-            if (a := untried.check(index, c)) is not None]
+    `UntriedActions.check` accepts (the footprint models answer every cell in its first call)."""
+    check = UntriedActions(feasibility, state, workspace, [], prefer).check
+    return [a for c in range(len(workspace.cell_centres)) if (a := check(index, c)) is not None]
 
 
 def cell_moves(feasibility: FeasibilityModel, state: PlanningState, index: int,
