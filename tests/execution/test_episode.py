@@ -35,7 +35,7 @@ def test_tsad_on_the_shipped_network_retrieves_the_target():
     """TSAD planning on the prehensile network (`--feasibility net`, its default weights): the
     episode succeeds in the world model (true shapes) and counts its network queries."""
     scenario = generate_scenario("1", 1)
-    config = make_config("tsad", time_budget_s=60.0)  # generous: the outcome, not the speed
+    config = make_config("tsad")
     result = run_episode(scenario, get_planner("tsad"), "net",
                          lambda s: observe_raycast(s).scene, config, seed=1, planner_name="tsad")
     assert result.success and result.falls == 0, result.failure_reason

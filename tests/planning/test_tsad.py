@@ -11,6 +11,7 @@ import pytest
 
 from tsad_drake.execution.world import WorldModel
 from tsad_drake.perception.observe import observe_raycast
+from tsad_drake.planning.baseline_common import Budget
 from tsad_drake.planning.feasibility import make_feasibility
 from tsad_drake.planning.plan_check import plan_still_valid
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
@@ -23,7 +24,7 @@ from tsad_drake.scenario_generator import target_blockers
 #: generated scenes (frozen as JSON, so generator changes do not move them) that TSAD solves with
 #: the oracle; 1/0 needs a non-blocker relocated out of the way first
 SOLVED = [("1", 0), ("1", 1), ("3", 1)]
-CONFIG = TSADConfig(time_budget_s=20.0)
+CONFIG = TSADConfig()
 SCENES = Path(__file__).parent / "scenes"
 
 
@@ -127,14 +128,31 @@ def test_same_seed_same_plan(scenes, plans):
     assert again.actions == plans[("1", 1)].actions and again.theta_star == plans[("1", 1)].theta_star
 
 
-def test_unsolvable_scene_fails_within_budget(scenes):
+def test_unsolvable_scene_is_a_failure_result(scenes):
     scenario, workspace, state = scenes[("walled", 0)]
-    config = dc.replace(CONFIG, time_budget_s=2.0, max_iterations=10_000)
-    t0 = time.perf_counter()
-    plan = plan_tsad(state, make_feasibility("oracle", scenario, workspace), workspace, config,
+    plan = plan_tsad(state, make_feasibility("oracle", scenario, workspace), workspace, CONFIG,
                      np.random.default_rng(0))
     assert not plan.success and plan.failure_reason
-    assert time.perf_counter() - t0 < 2.0 + 1.5
+    assert plan.stats["iterations_total"] <= CONFIG.iteration_budget
+
+
+def test_the_iteration_budget_ends_a_search_the_same_way_on_any_machine(scenes):
+    scenario, workspace, state = scenes[("1", 1)]
+    oracle = make_feasibility("oracle", scenario, workspace)
+    # sub-searches that never stop on their own: only the call's budget ends the search
+    endless = dict(iterations=10**9, max_iterations=10**9)
+    config = dc.replace(CONFIG, iteration_budget=400, **endless)
+    plan = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
+    assert not plan.success and "budget" in plan.failure_reason
+    assert plan.stats["iterations_total"] == 400 and not plan.stats["time_capped"]
+    again = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
+    assert again.actions == plan.actions and again.stats["iterations"] == plan.stats["iterations"]
+    # the wall-clock cap is a safety net behind it
+    config = dc.replace(CONFIG, iteration_budget=10**9, time_budget_s=1.0, **endless)
+    t0 = time.perf_counter()
+    plan = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
+    assert not plan.success and plan.stats["time_capped"]
+    assert time.perf_counter() - t0 < 1.0 + 5.0
 
 
 def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypatch):
@@ -144,7 +162,7 @@ def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypat
     scenario, workspace, state = scenes[("walled", 0)]
     calls = []
 
-    def attempt(state, feasibility, workspace, config, rng, theta_star, deadline, result):
+    def attempt(state, feasibility, workspace, config, rng, theta_star, budget, result):
         time.sleep(0.1)
         calls.append(theta_star)
         actions = [Action(state.objects[0].name, 0.0, 0.1, 0.0, 0.0)] if len(calls) == 1 else []
@@ -399,7 +417,7 @@ def test_a_sub_search_offers_distinct_terminal_states_best_first(scenes):
     k = angle_index(workspace.approach_angles, optimal_angle(state, oracle, workspace))
     search = SubSearch(state, k, oracle, workspace, CONFIG, np.random.default_rng(0),
                        EmptyCells(workspace), 0)
-    search.run(time.perf_counter() + 20.0)
+    search.run(Budget(10_000, 60.0))
     extracted = search.extract()
     branches = search.alternatives(3)
     assert 1 <= len(branches) <= 3 and branches[0][0] == extracted

@@ -14,7 +14,7 @@ model (`actions.py`); next states from the point-cloud simulation.
 Beyond the paper (each a `TSADConfig` field; see its comments): a complete plan is shortened by
 dropping or merging actions while `plan_check.replay_plan` still accepts it (and split into
 sub-searches afresh), the shortest of `complete_plans` complete plans (found within
-`improve_time_s` of the first) is returned, and a sub-search that finds no terminal state makes
+`improve_iterations` of the first) is returned, and a sub-search that finds no terminal state makes
 the search back up to the previous sub-search's next-best terminal state (`backtrack_width`).
 """
 
@@ -22,13 +22,12 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
-import time
 from collections.abc import Callable
 
 import numpy as np
 
 from tsad_drake.planning.actions import UntriedActions, choose_theta_pick, random_action
-from tsad_drake.planning.baseline_common import reachable_angles
+from tsad_drake.planning.baseline_common import Budget, reachable_angles
 from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.plan_check import rearrangement_set, relocation_key, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
@@ -55,10 +54,14 @@ class TSADConfig:
     empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
     widening: float | None = 3.0  #: children <= widening * sqrt(N(s)); None: expand all first
     max_sub_searches: int = 12  #: sub-MCTS runs before giving up
-    #: s, wall-clock budget of one plan_tsad call (10 -> 20 on 2026-12-01: scenario 2 seed 1, five
-    #: blockers, found no complete plan in 10 s and its closed loop executed a failed attempt;
-    #: scenario 2 seeds 0-29: 3.97 -> 3.93 actions, median planning 1.0 -> 0.9 s)
-    time_budget_s: float = 20.0
+    #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
+    #: search, so the same seed gives the same plan on any machine. 20,000 is about the 20 s
+    #: wall-clock budget it replaced on the 2-core bench machine (700-1,400 iterations/s on
+    #: scenario 2); scenario 2 seed 1, five blockers, needs about 9,000 for its first complete plan
+    iteration_budget: int = 20_000
+    #: s, wall-clock cap of one plan_tsad call: a safety net only (a plan cut by it depends on the
+    #: machine's speed; the plan's stats say `time_capped`)
+    time_budget_s: float = 60.0
     use_ro: bool = True  #: ablation: False drops r_o ("w/o r_o")
     use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
     max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
@@ -86,8 +89,9 @@ class TSADConfig:
     #: complete plans collected (each from a fresh sequential search) before the shortest is
     #: returned; 1 returns the first plan found, as the paper does
     complete_plans: int = 3
-    #: s, search time allowed after the first complete plan for finding shorter ones
-    improve_time_s: float = 2.0
+    #: sub-MCTS iterations allowed after the first complete plan for finding shorter ones (about
+    #: the 2 s it replaced on the bench machine)
+    improve_iterations: int = 2_000
     #: terminal states of a sub-search tried, best first, before the search backs up further
     #: when a later sub-search finds no terminal state (depth-first backtracking over the
     #: sequence); 1 keeps the extracted one only, as the paper does. 3 on 2026-12-01: scenario 2
@@ -391,15 +395,17 @@ class SubSearch:
         self.backpropagate(node)
         self.iterations += 1
 
-    def run(self, deadline: float) -> list[Action] | None:
-        """Search until the iteration budget (extended while nothing terminal is found) or deadline."""
+    def run(self, budget: Budget) -> list[Action] | None:
+        """Search until this sub-search's iterations (extended while nothing terminal is found)
+        or the whole call's `budget` run out."""
         cfg = self.config
-        while time.perf_counter() < deadline:
+        while not budget.exhausted():
             if self.iterations >= cfg.max_iterations:
                 break
             if self.iterations >= cfg.iterations and self.root.has_terminal:
                 break
             self.iterate()
+            budget.tick()
             if not self.root.children and self.actions(self.root).peek() is None:
                 break  # nothing can be moved at all
         return self.extract()
@@ -448,14 +454,13 @@ class SubSearch:
 def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
               config: TSADConfig, rng: np.random.Generator) -> Plan:
     """TSAD's plan for taking `state.target` out (a failure result, never an exception or a hang)."""
-    start = time.perf_counter()
-    deadline = start + config.time_budget_s
+    budget = Budget(config.iteration_budget, config.time_budget_s)
     name = "tsad" if config.use_ro and config.use_re else (
         "tsad-no-ro" if config.use_re else "tsad-no-re" if config.use_ro else "tsad-no-ro-no-re")
 
     def result(theta: float | None, actions: list[Action], success: bool, reason: str = "",
                **stats) -> Plan:
-        return Plan(name, theta, actions, success, reason, time.perf_counter() - start, stats)
+        return Plan(name, theta, actions, success, reason, budget.elapsed, stats)
 
     if not state.target or state.target not in [o.name for o in state.objects]:
         return result(None, [], False, "target not observed")
@@ -470,11 +475,10 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     candidates = [first] + [theta for theta in ranked if theta != first][:config.angle_fallbacks]
     best = None  #: the failed attempt that got furthest
     found: list[Plan] = []  #: complete plans, shortened
-    improve_until = deadline
     for _ in range(max(config.restarts, 1) + config.complete_plans - 1):
         for theta_star in candidates:
             plan = _sequential_sub_search(state, feasibility, workspace, config, rng, theta_star,
-                                          improve_until, result)
+                                          budget, result)
             if plan.success:
                 if config.shorten:
                     searched = len(plan.actions)
@@ -483,26 +487,27 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
                     plan.stats["actions_before_shortening"] = searched
                 found.append(plan)
                 if len(found) == 1:
-                    improve_until = min(deadline, time.perf_counter() + config.improve_time_s)
+                    budget.max_iterations = min(budget.max_iterations,
+                                                budget.iterations + config.improve_iterations)
                 break
             if best is None or len(plan.actions) > len(best.actions):
                 best = plan
-            if time.perf_counter() >= improve_until:
+            if budget.exhausted():
                 break
-        if len(found) >= config.complete_plans or time.perf_counter() >= improve_until:
+        if len(found) >= config.complete_plans or budget.exhausted():
             break
-    if not found:
-        best.planning_time_s = time.perf_counter() - start  # every attempt, not just this one
-        return best
-    shortest = min(found, key=lambda p: len(p.actions))  # the first of the shortest
-    shortest.stats["complete_plans"] = [len(p.actions) for p in found]
-    shortest.planning_time_s = time.perf_counter() - start
-    return shortest
+    chosen = min(found, key=lambda p: len(p.actions)) if found else best  # the first of the shortest
+    if found:
+        chosen.stats["complete_plans"] = [len(p.actions) for p in found]
+    chosen.stats["iterations_total"] = budget.iterations
+    chosen.stats["time_capped"] = budget.elapsed >= budget.time_limit_s
+    chosen.planning_time_s = budget.elapsed  # every attempt, not just the chosen one
+    return chosen
 
 
 def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
                            workspace: Workspace, config: TSADConfig, rng: np.random.Generator,
-                           theta_star: float, deadline: float,
+                           theta_star: float, budget: Budget,
                            result: Callable[..., Plan]) -> Plan:
     """Stage 2 of TSAD for one retrieval angle: sub-MCTS after sub-MCTS until R is empty.
 
@@ -538,12 +543,12 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
         excluded = frozenset(config.excluded_actions) if sub == 0 else frozenset()
         search = SubSearch(current, k, feasibility, workspace, config, rng, empty_cells,
                            initial_empty, excluded)
-        search.run(deadline)
+        search.run(budget)
         iterations.append(search.iterations)
         nodes.append(search.nodes)
         branches = search.alternatives(max(config.backtrack_width, 1))
         if not branches:
-            why = "time budget spent" if time.perf_counter() >= deadline else "no terminal state found"
+            why = "search budget spent" if budget.exhausted() else "no terminal state found"
             fail(actions, sizes, f"sub-search {sub}: {why}")
             return None
         for sub_actions, reached in branches:
@@ -552,7 +557,7 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
                            sizes + [len(feasibility.blockers(reached, reached.target_index)[k])])
             if plan is not None:
                 return plan
-            if time.perf_counter() >= deadline:
+            if budget.exhausted():
                 break
         return None
 
