@@ -181,8 +181,13 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
                            closed_loop=closed_loop)
     reason = ""
     can_exclude = hasattr(config, "excluded_actions")
-    excluded: list[tuple[str, float, float]] = []  #: relocations motion planning rejected
-    vetoes: set[tuple[str, int]] = set()  #: (object, angle index) picks motion planning rejected
+    #: relocations (object, x, y) motion planning rejected, for the rest of the episode: cleared
+    #: after each executed action, a refusal came back a round later (after an unrelated move)
+    #: and cost an action each time
+    excluded: list[tuple[str, float, float]] = []
+    #: (object, angle index) picks motion planning rejected, until the next executed action
+    vetoes: set[tuple[str, int]] = set()
+    in_a_row = 0  #: rejections since the last executed action
     reuse_plans = closed_loop and getattr(config, "reuse_plans", False)
     pending: Plan | None = None  #: the unexecuted sub-searches of the last plan (reuse_plans)
     models = []  #: the feasibility model of every round (one per observation)
@@ -237,15 +242,16 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         if executed < len(todo):
             pending = None
         if executed:
-            excluded, vetoes = [], set()
+            vetoes, in_a_row = set(), 0
         if rejected is not None:
+            in_a_row += 1
             if result.motion_checks[-1]["failure"].startswith("pick"):
                 # the object cannot be taken at that angle: rule the pick out, not the object
                 k = angle_index(workspace.approach_angles, rejected.theta_pick)
                 vetoes.add((rejected.object, k))
             else:
                 excluded.append(action_key(rejected))
-            if len(excluded) + len(vetoes) > max_rejections:
+            if in_a_row > max_rejections:
                 reason = f"no motion-feasible action after {max_rejections} rejections"
                 break
             continue

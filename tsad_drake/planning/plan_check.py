@@ -120,15 +120,15 @@ def shorten_plan(state: PlanningState, actions: list[Action], theta_star: float,
 
     A shorter plan only has to be feasible and clear the target: its sub-search labels are
     derived afresh (`regroup`), so an action can go even when the search's own split of the
-    plan needed it. A shortened plan never starts with an `excluded` relocation (see
-    `action_key`).
+    plan needed it. A shortened plan holds no `excluded` relocation (see `action_key`); a merge
+    could make one.
     """
     current = actions
     improved = True
     while improved and current:
         improved = False
         for candidate in _candidates(current):
-            if candidate and action_key(candidate[0]) in excluded:
+            if any(action_key(a) in excluded for a in candidate):
                 continue
             replayed = replay_plan(state, candidate, theta_star, feasibility, workspace,
                                    groups=False)

@@ -29,7 +29,12 @@ import numpy as np
 from tsad_drake.planning.actions import UntriedActions, choose_theta_pick, random_action
 from tsad_drake.planning.baseline_common import Budget, reachable_angles
 from tsad_drake.planning.feasibility import angle_index, blockers_at
-from tsad_drake.planning.plan_check import rearrangement_set, relocation_key, shorten_plan
+from tsad_drake.planning.plan_check import (
+    action_key,
+    rearrangement_set,
+    relocation_key,
+    shorten_plan,
+)
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
 from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
@@ -66,8 +71,9 @@ class TSADConfig:
     use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
     max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
     angle_fallbacks: int = 6  #: next-ranked angles tried when theta* yields no complete plan
-    #: relocations (object, x, y) from the current state that motion planning rejected; the
-    #: closed loop adds to it and plans again, so the first action is never one of them
+    #: relocations (object, x, y) that motion planning rejected; the closed loop adds to it and
+    #: plans again, and no action of the plan is one of them (not only the first: a refused
+    #: relocation second in a sub-search came back after each unrelated first move)
     excluded_actions: tuple[tuple[str, float, float], ...] = ()
     #: probability that a rollout step moves a relevant object (a member of R_{theta*,s} or an
     #: object blocking a member along theta*) instead of any object; 0 is the paper's uniform
@@ -214,7 +220,7 @@ class SubSearch:
         #: the model rollouts draw their actions with (see `TSADConfig.fast_rollouts`)
         self.rollout_model = (getattr(feasibility, "rollout_model", feasibility)
                               if config.fast_rollouts else feasibility)
-        self.excluded = excluded  #: action keys not allowed from the root
+        self.excluded = excluded  #: action keys (`relocation_key`) not allowed anywhere
         self.k = theta_index
         self.theta = float(workspace.approach_angles[theta_index])
         self.empty_cells = empty_cells
@@ -274,7 +280,7 @@ class SubSearch:
             if getattr(self.feasibility, "first_place_option", None) is None:
                 probe = UntriedActions(self.feasibility, state, self.workspace, [], self.theta)
                 candidates = [ic for ic in candidates if probe.check(*ic) is not None]
-            if node.parent is None and self.excluded:
+            if self.excluded:
                 candidates = [(i, c) for i, c in candidates
                               if relocation_key(state.objects[i].name, *cells[c])
                               not in self.excluded]
@@ -315,7 +321,7 @@ class SubSearch:
                                        self.theta, among=self.relevant(state))
             if action is None:
                 action = random_action(model, state, self.workspace, self.rng, self.theta)
-            if action is None:
+            if action is None or action_key(action) in self.excluded:
                 break
             state = simulate_pick_place(state, action)
             path_actions.append((action, state))
@@ -540,9 +546,8 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
         if sub >= config.max_sub_searches:
             fail(actions, sizes, "sub-search limit reached")
             return None
-        excluded = frozenset(config.excluded_actions) if sub == 0 else frozenset()
         search = SubSearch(current, k, feasibility, workspace, config, rng, empty_cells,
-                           initial_empty, excluded)
+                           initial_empty, frozenset(config.excluded_actions))
         search.run(budget)
         iterations.append(search.iterations)
         nodes.append(search.nodes)
