@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-PLANNER_NAMES = ("tsad", "gp3", "rots", "rots-star", "optimal")
+PLANNER_NAMES = ("tsad", "gp3", "rots", "rots-star", "rots-star-search", "optimal")
 FEASIBILITY_NAMES = ("net", "geometric", "oracle")
 #: --feasibility when none is given (any other planner: geometric)
 DEFAULT_FEASIBILITY = {"tsad": "net", "optimal": "oracle"}
@@ -16,14 +16,16 @@ OBSERVERS = ("drake", "raycast")
 
 def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
     p.add_argument("--planner", required=True, choices=PLANNER_NAMES,
-                   help="tsad (the paper's method), gp3, rots, rots-star (ROTS checked by the "
-                        "feasibility model) or optimal (exhaustive search on the oracle model, "
-                        "budgeted: the floor for action counts)")
+                   help="tsad (the paper's method), gp3, rots, rots-star (ROTS's sequence checked "
+                        "step by step by the feasibility model, as in the paper), "
+                        "rots-star-search (a stronger ROTS*: the model inside the A* search) "
+                        "or optimal (exhaustive search on the oracle model, budgeted: the floor "
+                        "for action counts)")
     p.add_argument("--feasibility", default=None, choices=FEASIBILITY_NAMES,
                    help="prehensile feasibility model the planner queries: net (the shipped "
                         "PointNet++ prehensile network; default for tsad), geometric (gripper "
-                        "swept volume against perceived point clouds; default for gp3, rots and "
-                        "rots-star) or oracle (true geometry; default for optimal)")
+                        "swept volume against perceived point clouds; default for gp3 and the "
+                        "rots planners) or oracle (true geometry; default for optimal)")
     p.add_argument("--ablation", default="none", choices=ABLATIONS,
                    help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none)")
     p.add_argument("--observer", default=default_observer, choices=OBSERVERS,

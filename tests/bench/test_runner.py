@@ -68,12 +68,12 @@ def test_summary_separates_successful_and_all_episodes():
 
 
 def _document(planner: str, outcomes: list[tuple[bool, int]], feasibility: str = "geometric",
-              time_s: float = 1.0) -> dict:
+              time_s: float = 1.0, scenario: str = "2") -> dict:
     rows = [{"seed": seed, "success": ok, "num_actions": n, "falls": 0, "planning_time_s": time_s,
              "optimal_finished": planner == "optimal" and ok,
              "failure_reason": "" if ok else "planning failed: sub-search 0"}
             for seed, (ok, n) in enumerate(outcomes)]
-    return {"spec": {"scenario": "2", "planner": planner, "feasibility": feasibility},
+    return {"spec": {"scenario": scenario, "planner": planner, "feasibility": feasibility},
             "rows": rows, "summary": summarise(rows)}
 
 
@@ -108,6 +108,24 @@ def test_report_says_which_targets_are_missed_by_how_much_and_why(tmp_path):
         assert f"rots 0.{rots_k}0 < rots-star 0.50 < tsad 0.70): {verdict}" in text
         assert "`optimal` solves 10/10 of these scenes, TSAD 7/10 of those\n" in text
         assert "of the rest" not in text
+
+
+def test_baseline_order_follows_the_papers_ties_and_strict_steps(tmp_path):
+    # scenario 1 of the paper: gp3 0.33 < rots 0.87 = rots-star 0.87 < tsad 0.97
+    def order_line(rates):
+        docs = [_document(p, [(True, 3)] * k + [(False, 3)] * (10 - k), scenario="1")
+                for p, k in rates]
+        write_report(docs, tmp_path / "RESULTS.md")
+        text = (tmp_path / "RESULTS.md").read_text()
+        return next(line for line in text.splitlines() if "paper's order" in line)
+
+    tie = order_line([("gp3", 3), ("rots", 8), ("rots-star", 8), ("tsad", 10)])
+    assert tie.endswith("rots 0.80 <= rots-star 0.80 < tsad 1.00): met"), tie
+    assert order_line([("gp3", 3), ("rots", 8), ("rots-star", 9), ("tsad", 10)]).endswith(": met")
+    assert order_line([("gp3", 3), ("rots", 9), ("rots-star", 8), ("tsad", 10)]).endswith(
+        "**missed**")  # below where the paper ties
+    assert order_line([("gp3", 3), ("rots", 8), ("rots-star", 10), ("tsad", 10)]).endswith(
+        "**missed**")  # a tie where the paper is strict
 
 
 def test_net_timing_prints_a_row_per_batch_and_thread_count(capsys):

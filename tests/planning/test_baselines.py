@@ -88,10 +88,12 @@ def _execute(scenario, plan):
 
 
 def test_registry_has_the_baselines():
-    for name in ("gp3", "rots", "rots-star", "optimal"):
+    for name in ("gp3", "rots", "rots-star", "rots-star-search", "optimal"):
         assert name in PLANNERS
         assert make_config(name) is not None
     assert make_config("rots-star").check_feasibility
+    assert not make_config("rots-star").check_during_search  # the paper's: the sequence checked
+    assert make_config("rots-star-search").check_during_search
 
 
 def test_gp3_fails_when_there_is_no_free_space(scenes):
@@ -147,7 +149,8 @@ def test_optimal_respects_its_budget(scenes):
     assert not plan.success and plan.planning_time_s < 1.0
 
 
-@pytest.mark.parametrize("planner", ["gp3", "gp3-corridor", "rots", "rots-star", "optimal"])
+@pytest.mark.parametrize("planner", ["gp3", "gp3-corridor", "rots", "rots-star",
+                                     "rots-star-search", "optimal"])
 def test_plans_do_in_the_world_what_they_claim(planner, scenes):
     scenario, workspace, state, oracle = scenes["two"]
     config = make_config(planner.removesuffix("-corridor"))
@@ -169,7 +172,7 @@ def test_plans_do_in_the_world_what_they_claim(planner, scenes):
     assert world.relocations == len(plan.actions)
 
 
-@pytest.mark.parametrize("planner", ["gp3", "rots", "rots-star"])
+@pytest.mark.parametrize("planner", ["gp3", "rots", "rots-star", "rots-star-search"])
 def test_same_seed_same_plan(planner, scenes):
     _, workspace, state, oracle = scenes["two"]
     run = [PLANNERS[planner](state, oracle, workspace, make_config(planner),
@@ -182,8 +185,12 @@ def test_rots_ignores_shape_and_knocks_over_what_rots_star_leaves(scenes):
     rots = plan_rots(state, oracle, workspace)
     star = plan_rots_star(state, oracle, workspace)
     assert rots.success and [a.object for a in rots.actions] == ["rect"]  # looks cheapest
+    # ROTS*'s check refuses ROTS's first sequence (rect cannot be picked there), ROTS plans again
+    assert star.stats["rejected_steps"] and "rect" in star.stats["rejected_steps"][0]
     assert star.success and "rect" not in {a.object for a in star.actions}
     rots_world, star_world = _execute(scenario, rots), _execute(scenario, star)
     assert "rect" in rots_world.fallen and not rots_world.success
     assert star_world.success and star_world.fallen == []
     assert len(rots_world.fallen) > len(star_world.fallen)
+    search = PLANNERS["rots-star-search"](state, oracle, workspace, make_config("rots-star-search"))
+    assert search.success and _execute(scenario, search).success

@@ -1,7 +1,7 @@
 """Planner registry: name -> plan function with the shared signature, and each one's config.
 
 Every planner is `plan(state, feasibility, workspace, config, rng) -> Plan`. The baselines
-("gp3", "rots", "rots-star", "optimal") register here next to "tsad".
+("gp3", "rots", "rots-star", "rots-star-search", "optimal") register here next to "tsad".
 """
 
 from __future__ import annotations
@@ -20,9 +20,11 @@ PLANNERS: dict[str, Callable] = {"tsad": plan_tsad}
 CONFIGS: dict[str, Callable[[], Any]] = {"tsad": TSADConfig}
 # the baselines (gp3.py, rots.py, optimal.py)
 PLANNERS.update({"gp3": plan_gp3, "rots": plan_rots, "rots-star": plan_rots_star,
-                 "optimal": plan_optimal})
+                 "rots-star-search": plan_rots_star, "optimal": plan_optimal})
 CONFIGS.update({"gp3": GP3Config, "rots": ROTSConfig,
                 "rots-star": lambda: ROTSConfig(check_feasibility=True),
+                "rots-star-search": lambda: ROTSConfig(check_feasibility=True,
+                                                       check_during_search=True),
                 "optimal": OptimalConfig})
 #: TSAD ablations of the paper's Table II: name -> TSADConfig overrides
 ABLATIONS: dict[str, dict[str, Any]] = {"none": {}, "no-ro": {"use_ro": False},
