@@ -67,13 +67,18 @@ bench: setup
 	$(MAKE) report
 
 # Extras: TSAD on the prehensile network and on the oracle model (scenarios 1-3, 30 episodes
-# each: the network issue's target is net within 0.03 of oracle), and every planner on scenario 1
-# with each action verified at the motion level (`--motion`, 10 episodes: the motion-feasible share).
+# each: the network issue's target is net within 0.03 of oracle), the stronger ROTS* variant
+# (rots-star-search), and every planner on scenario 1 with each action verified at the motion
+# level (`--motion`, 10 episodes: the motion-feasible share).
 bench-extra: setup
 	mkdir -p $(BENCH_DIR)
 	for s in 1 2 3; do for f in net oracle; do \
 	  $(TSAD) bench --scenario $$s --planner tsad --feasibility $$f --episodes $(BENCH_EPISODES) \
 	    --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s$$s-tsad-$$f.json || exit 1; done; done
+	for s in 1 2 3; do \
+	  $(TSAD) bench --scenario $$s --planner rots-star-search --feasibility geometric \
+	    --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/s$$s-rots-star-search.json || exit 1; done
 	for p in tsad gp3 rots rots-star; do \
 	  $(TSAD) bench --scenario 1 --planner $$p --feasibility geometric --motion --episodes 10 \
 	    --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s1-$$p-motion.json || exit 1; done

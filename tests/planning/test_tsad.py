@@ -13,7 +13,7 @@ from tsad_drake.execution.world import WorldModel
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.planning.baseline_common import Budget
 from tsad_drake.planning.feasibility import make_feasibility
-from tsad_drake.planning.plan_check import plan_still_valid
+from tsad_drake.planning.plan_check import plan_still_valid, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.planning.tsad import TSADConfig, plan_tsad
@@ -370,7 +370,7 @@ def test_a_cell_reached_only_from_another_pick_angle_is_an_action():
 
 @pytest.mark.parametrize("key", SOLVED)
 def test_shortened_plans_are_split_into_sub_searches_afresh(key, scenes, plans):
-    from tsad_drake.planning.plan_check import regroup, shorten_plan
+    from tsad_drake.planning.plan_check import regroup
 
     scenario, workspace, state = scenes[key]
     plan = plans[key]
@@ -427,3 +427,29 @@ def test_a_sub_search_offers_distinct_terminal_states_best_first(scenes):
         for action in actions:
             current = simulate_pick_place(current, action)
         assert current.key() == reached.key() and search.reward(reached)[1]
+
+
+def test_a_move_there_and_back_is_dropped_as_a_pair():
+    """Scenario 2 seed 23 (frozen): the search's plan moves obj7 to A, to B, back to A and to B
+    again. Merging the middle two would move obj7 to where it already is (no action) and neither
+    can go alone, so the pair is dropped: 5 relocations, `optimal`'s count, and the world model
+    retrieves the target."""
+    from tsad_drake.planning.plan_check import replay_plan
+
+    scenario = load_scene("2", 23)
+    workspace = make_workspace(scenario)
+    state = state_from_perception(observe_raycast(scenario).scene)
+    geometric = make_feasibility("geometric", scenario, workspace)
+    a, b = (0.06625, 0.035833), (0.06625, -0.1075)
+    steps = [("obj4", 10, (0.06625, 0.179167), 10), ("obj7", -30, a, -30),
+             ("obj8", -30, (0.12875, -0.179167), -30), ("obj7", -30, b, -30),
+             ("obj7", -30, a, -30), ("obj5", 20, (0.06625, -0.179167), 10), ("obj7", -30, b, -30)]
+    searched = [Action(n, np.radians(tp), x, y, np.radians(tq)) for n, tp, (x, y), tq in steps]
+    theta_star = np.radians(-20.0)
+    assert replay_plan(state, searched, theta_star, geometric, workspace, groups=False)
+    shortened = shorten_plan(state, searched, theta_star, geometric, workspace)
+    assert len(shortened) == 5 and [x.object for x in shortened].count("obj7") == 2
+    world = WorldModel(scenario)
+    for action in shortened:
+        world.apply(action)
+    assert world.retrieve() and not world.fallen

@@ -103,7 +103,12 @@ def plan_still_valid(state: PlanningState, actions: list[Action], theta_star: fl
 
 
 def _candidates(actions: list[Action]):
-    """Shorter variants of a plan: one action dropped, or an object's two moves made one."""
+    """Shorter variants of a plan, two actions shorter first: two actions dropped (a move there
+    and back among them: merging those would be a move to where the object already is, which is
+    no action), one action dropped, or an object's two moves made one."""
+    for i in range(len(actions)):
+        for j in range(i + 1, len(actions)):
+            yield actions[:i] + actions[i + 1:j] + actions[j + 1:]
     for i in range(len(actions)):
         yield actions[:i] + actions[i + 1:]
     for i in range(len(actions)):
