@@ -149,6 +149,15 @@ def test_optimal_respects_its_budget(scenes):
     assert not plan.success and plan.planning_time_s < 1.0
 
 
+@pytest.mark.parametrize("planner", ["rots", "rots-star", "rots-star-search"])
+def test_rots_searches_end_on_their_node_budget(planner, scenes):
+    _, workspace, state, oracle = scenes["two"]
+    config = dc.replace(make_config(planner), max_nodes=1)
+    plan = PLANNERS[planner](state, oracle, workspace, config)
+    assert not plan.success and plan.failure_reason == "search budget exhausted"
+    assert plan.stats["nodes"] == 1
+
+
 @pytest.mark.parametrize("planner", ["gp3", "gp3-corridor", "rots", "rots-star",
                                      "rots-star-search", "optimal"])
 def test_plans_do_in_the_world_what_they_claim(planner, scenes):
