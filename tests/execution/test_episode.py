@@ -136,3 +136,46 @@ def test_pick_veto_rules_out_only_the_vetoed_angle():
         assert vetoed.blockers(state, j) == base.blockers(state, j)
         if j != i:
             assert np.array_equal(vetoed.pickable(state, j), base.pickable(state, j))
+
+
+def test_a_round_that_brings_the_scene_back_excludes_the_moves_that_did():
+    """A planner that moves one object back and forth (A, B, A, ...) never progresses; once the
+    scene is back where it was, the closed loop excludes those relocations and the planner has
+    to choose another cell (here C), then has nothing left and the episode ends."""
+    import dataclasses as dc
+
+    from tsad_drake.planning.actions import UntriedActions
+    from tsad_drake.planning.plan_check import relocation_key
+    from tsad_drake.planning.types import Action, Plan
+    from tsad_drake.scenario_generator import true_state
+
+    scenario = generate_scenario("1", 1)
+    workspace = make_workspace(scenario)
+    state = true_state(scenario)
+    oracle = make_feasibility("oracle", scenario, workspace)
+    probe = UntriedActions(oracle, state, workspace, [], 0.0)
+    movable = {o.name: [a for c in range(len(workspace.cell_centres))
+                        if (a := probe.check(i, c)) is not None]
+               for i, o in enumerate(state.objects) if o.name != state.target}
+    name = next(n for n, moves in movable.items() if len(moves) >= 3)
+    cells = [(m.x, m.y) for m in movable[name][:3]]
+    seen_exclusions = []
+
+    def back_and_forth(state, feasibility, workspace, config, rng):
+        seen_exclusions.append(set(config.excluded_actions))
+        obj = state.objects[state.index(name)]
+        for x, y in cells:
+            here = math.hypot(obj.x - x, obj.y - y) < 0.01
+            if not here and relocation_key(name, x, y) not in config.excluded_actions:
+                return Plan("stub", 0.0, [Action(name, 0.0, x, y, 0.0)], False, "stub")
+        return Plan("stub", None, [], False, "nowhere left")
+
+    config = dc.replace(make_config("tsad"), excluded_actions=())
+    result = run_episode(scenario, back_and_forth, "oracle", _observe, config, seed=1,
+                         planner_name="stub")
+    placed = [tuple(a["place_xy"]) for a in result.actions]
+    a, b, c = [(round(x, 6), round(y, 6)) for x, y in cells]
+    assert placed == [a, b, a, c], placed
+    assert relocation_key(name, *a) in seen_exclusions[-1]
+    assert relocation_key(name, *b) in seen_exclusions[-1]
+    assert not result.success and "nowhere left" in result.failure_reason

@@ -21,7 +21,7 @@ from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.feasibility import angle_index, make_feasibility
 from tsad_drake.planning.pick_veto import PickVeto
-from tsad_drake.planning.plan_check import action_key, replay_plan
+from tsad_drake.planning.plan_check import action_key, relocation_key, replay_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.planning.types import Action, Plan, PlanningState
@@ -132,6 +132,28 @@ def _execute(world: WorldModel, state: PlanningState, actions: list[Action],
     return len(actions), None
 
 
+def _configuration(world: WorldModel) -> frozenset:
+    """Every object's planar pose in the true scene (to the millimetre and milliradian)."""
+    return frozenset((o.name, round(o.x, 3), round(o.y, 3), round(o.yaw, 3))
+                     for o in world.scenario().objects)
+
+
+def _cycle(history: list[tuple[frozenset, int]], world: WorldModel,
+           executed: list[dict]) -> list[tuple[str, float, float]]:
+    """The relocations to exclude when the last round brought the scene back to a configuration
+    it was in before (no progress, and planning on the same observation would repeat it): every
+    relocation executed since then. Appends the configuration to `history`.
+
+    The network's scenario 2 seed 18 moved obj2 back and forth between two cells until the action
+    limit, each observation predicting that the next move clears the target."""
+    now = _configuration(world)
+    earlier = next((n for config, n in history if config == now), None)
+    history.append((now, len(executed)))
+    if earlier is None:
+        return []
+    return [relocation_key(a["object"], *a["place_xy"]) for a in executed[earlier:]]
+
+
 def _reused(pending: Plan, state: PlanningState, feasibility, workspace) -> Plan | None:
     """The rest of the last plan when the new observation still admits it, else None."""
     start = time.perf_counter()
@@ -188,6 +210,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
     #: (object, angle index) picks motion planning rejected, until the next executed action
     vetoes: set[tuple[str, int]] = set()
     in_a_row = 0  #: rejections since the last executed action
+    #: (true configuration, actions executed so far) after each round that executed actions
+    history = [(_configuration(world), 0)]
     reuse_plans = closed_loop and getattr(config, "reuse_plans", False)
     pending: Plan | None = None  #: the unexecuted sub-searches of the last plan (reuse_plans)
     models = []  #: the feasibility model of every round (one per observation)
@@ -239,6 +263,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
         todo = todo[:max_actions - world.num_actions]
         executed, rejected = _execute(world, state, todo, result, action_check, can_exclude)
         result.rounds.append(_round_record(plan, executed, world))
+        if executed and can_exclude:
+            excluded.extend(_cycle(history, world, result.actions))
         if executed < len(todo):
             pending = None
         if executed:
