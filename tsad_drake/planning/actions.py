@@ -189,6 +189,18 @@ class UntriedActions:
                                     and (float(cells[c, 0]), float(cells[c, 1])) == (x, y))]
 
 
+def rederive(feasibility: FeasibilityModel, state: PlanningState, action: Action,
+             workspace: Workspace, prefer: float) -> Action | None:
+    """`action`'s object moved to the grid cell nearest its (x, y) in `state`, with theta_pick
+    and theta_place chosen as the search chooses them (`UntriedActions.check`: the pickable
+    angle nearest `prefer` from which the cell admits a placement), or None when the model
+    refuses it (a cell where the object already is included)."""
+    cells = workspace.cell_centres
+    cell = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
+    return UntriedActions(feasibility, state, workspace, [], prefer).check(
+        state.index(action.object), cell)
+
+
 def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,
                   rng: np.random.Generator, prefer: float = 0.0,
                   among: list[int] | None = None) -> Action | None:

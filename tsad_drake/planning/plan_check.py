@@ -17,9 +17,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 
-import numpy as np
-
-from tsad_drake.planning.actions import UntriedActions
+from tsad_drake.planning.actions import rederive
 from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
@@ -52,17 +50,14 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
     if state.target not in names:
         return None
     k = angle_index(workspace.approach_angles, theta_star)
-    cells = workspace.cell_centres
     current, out = state, []
     group_start = rearrangement_set(state, feasibility, k)
     for n, action in enumerate(actions):
         if action.object not in names or action.object == state.target:
             return None
-        i = current.index(action.object)
-        c = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
         # the search's own rule (pick angle nearest the recorded one that reaches the cell; a
         # cell where the object already is is no move: a merge of two moves can end there)
-        redone = UntriedActions(feasibility, current, workspace, [], action.theta_pick).check(i, c)
+        redone = rederive(feasibility, current, action, workspace, action.theta_pick)
         if redone is None:
             return None
         step = dc.replace(redone, sub_search=action.sub_search)

@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap, side_wall_polygons
-from tsad_drake.planning.actions import UntriedActions, choose_theta_pick, place_options
+from tsad_drake.planning.actions import choose_theta_pick, place_options, rederive
 from tsad_drake.planning.baseline_common import Budget, preferred_angle, target_clear
 from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, angle_index
 from tsad_drake.planning.plan_check import action_key
@@ -319,7 +319,7 @@ def check_sequence(state: PlanningState, actions: list[Action], theta: float,
 
     Each step keeps ROTS's object and cell; the model predicts the grasp: theta_pick is the
     pickable angle nearest ROTS's from which the cell admits a placement (TSAD's own rule,
-    `UntriedActions.check`), theta_place the model's. Returns (the checked actions, the
+    `actions.rederive`), theta_place the model's. Returns (the checked actions, the
     retrieval angle, None, "") when every step passes, else (None, None, the failing step, why):
     (state key, object) when the object cannot be picked at all, (state key, action key) when it
     cannot go to that cell; the last step is the one blamed when only the end state fails (None
@@ -327,14 +327,12 @@ def check_sequence(state: PlanningState, actions: list[Action], theta: float,
     """
     ws, current, checked = workspace, state, []
     searched = before = state  #: the states along ROTS's own actions (the keys its A* knows)
-    cells = ws.cell_centres
     for n, action in enumerate(actions):
         i = current.index(action.object)
         if not feasibility.pickable(current, i).any():
             return (None, None, (searched.key(), action.object),
                     f"step {n}: {action.object} not pickable at any angle")
-        c = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
-        redone = UntriedActions(feasibility, current, ws, [], action.theta_pick).check(i, c)
+        redone = rederive(feasibility, current, action, ws, action.theta_pick)
         if redone is None:
             return (None, None, (searched.key(), action_key(action)),
                     f"step {n}: {action.object} cannot be moved there")

@@ -26,7 +26,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from tsad_drake.planning.actions import UntriedActions, choose_theta_pick, random_action
+from tsad_drake.planning.actions import (
+    UntriedActions,
+    choose_theta_pick,
+    random_action,
+    rederive,
+)
 from tsad_drake.planning.baseline_common import Budget, reachable_angles
 from tsad_drake.planning.feasibility import angle_index, blockers_at
 from tsad_drake.planning.plan_check import (
@@ -342,13 +347,9 @@ class SubSearch:
         """A rollout path drawn with `rollout_model`, re-derived on the search's own model: each
         action's theta_pick and theta_place chosen as an expansion would choose them (None when
         the object cannot be picked or placed there), and the end state terminal. None if not."""
-        cells = self.workspace.cell_centres
         checked = []
         for action, _ in path:
-            i = state.index(action.object)
-            cell = int(np.argmin(np.hypot(cells[:, 0] - action.x, cells[:, 1] - action.y)))
-            redone = UntriedActions(self.feasibility, state, self.workspace, [],
-                                    self.theta).check(i, cell)
+            redone = rederive(self.feasibility, state, action, self.workspace, self.theta)
             if redone is None:
                 return None
             state = simulate_pick_place(state, redone)
@@ -401,9 +402,9 @@ class SubSearch:
         self.backpropagate(node)
         self.iterations += 1
 
-    def run(self, budget: Budget) -> list[Action] | None:
+    def run(self, budget: Budget) -> None:
         """Search until this sub-search's iterations (extended while nothing terminal is found)
-        or the whole call's `budget` run out."""
+        or the whole call's `budget` run out; `extract` / `alternatives` read the result."""
         cfg = self.config
         while not budget.exhausted():
             if self.iterations >= cfg.max_iterations:
@@ -414,7 +415,6 @@ class SubSearch:
             budget.tick()
             if not self.root.children and self.actions(self.root).peek() is None:
                 break  # nothing can be moved at all
-        return self.extract()
 
     def extract(self) -> list[Action] | None:
         """Actions along the highest-value children that lead to a terminal state, or None."""
