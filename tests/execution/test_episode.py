@@ -179,3 +179,26 @@ def test_a_round_that_brings_the_scene_back_excludes_the_moves_that_did():
     assert relocation_key(name, *a) in seen_exclusions[-1]
     assert relocation_key(name, *b) in seen_exclusions[-1]
     assert not result.success and "nowhere left" in result.failure_reason
+
+
+def test_the_rest_of_a_plan_is_not_reused_once_one_of_its_relocations_is_excluded():
+    """The closed loop keeps the rest of the last plan while it is still feasible, but never one
+    that holds a relocation excluded since (a motion refusal or the cycle guard): that would
+    execute an excluded relocation."""
+    from tsad_drake.execution.episode import _reused
+    from tsad_drake.planning.plan_check import action_key
+
+    scenario = generate_scenario("2", 16)  # five blockers: TSAD's plan has several sub-searches
+    workspace = make_workspace(scenario)
+    state = state_from_perception(_observe(scenario))
+    oracle = make_feasibility("oracle", scenario, workspace)
+    plan = get_planner("tsad")(state, oracle, workspace, make_config("tsad"),
+                               np.random.default_rng(16))
+    assert plan.success and len(plan.actions) >= 2
+    kept = _reused(plan, state, oracle, workspace)
+    assert kept is not None and kept.stats["reused"]
+    assert [action_key(a) for a in kept.actions] == [action_key(a) for a in plan.actions]
+    last = action_key(plan.actions[-1])
+    assert _reused(plan, state, oracle, workspace, frozenset({last})) is None
+    unrelated = (plan.actions[-1].object, 9.0, 9.0)
+    assert _reused(plan, state, oracle, workspace, frozenset({unrelated})) is not None

@@ -154,9 +154,13 @@ def _cycle(history: list[tuple[frozenset, int]], world: WorldModel,
     return [relocation_key(a["object"], *a["place_xy"]) for a in executed[earlier:]]
 
 
-def _reused(pending: Plan, state: PlanningState, feasibility, workspace) -> Plan | None:
-    """The rest of the last plan when the new observation still admits it, else None."""
+def _reused(pending: Plan, state: PlanningState, feasibility, workspace,
+            excluded: frozenset[tuple[str, float, float]] = frozenset()) -> Plan | None:
+    """The rest of the last plan when the new observation still admits it and none of its
+    relocations has been excluded since (`excluded`, see `action_key`), else None."""
     start = time.perf_counter()
+    if any(action_key(a) in excluded for a in pending.actions):
+        return None
     actions = replay_plan(state, pending.actions, pending.theta_star, feasibility, workspace)
     if actions is None:
         return None
@@ -235,7 +239,8 @@ def run_episode(scenario: Scenario, planner: Callable[..., Plan], feasibility_na
             continue
         if can_exclude:
             config = dc.replace(config, excluded_actions=tuple(excluded))
-        plan = _reused(pending, state, feasibility, workspace) if pending else None
+        plan = (_reused(pending, state, feasibility, workspace, frozenset(excluded))
+                if pending else None)
         if plan is None:
             plan = planner(state, feasibility, workspace, config, rng)
         pending = None
