@@ -78,7 +78,10 @@ bench-extra: setup
 	for s in 1 2 3; do \
 	  $(TSAD) bench --scenario $$s --planner rots-star-search --feasibility geometric \
 	    --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
-	    --out $(BENCH_DIR)/s$$s-rots-star-search.json || exit 1; done
+	    --out $(BENCH_DIR)/s$$s-rots-star-search.json || exit 1; \
+	  $(TSAD) bench --scenario $$s --planner rots-star --feasibility net \
+	    --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/s$$s-rots-star-net.json || exit 1; done
 	for p in tsad gp3 rots rots-star; do \
 	  $(TSAD) bench --scenario 1 --planner $$p --feasibility geometric --motion --episodes 10 \
 	    --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s1-$$p-motion.json || exit 1; done
