@@ -202,3 +202,64 @@ def test_the_rest_of_a_plan_is_not_reused_once_one_of_its_relocations_is_exclude
     assert _reused(plan, state, oracle, workspace, frozenset({last})) is None
     unrelated = (plan.actions[-1].object, 9.0, 9.0)
     assert _reused(plan, state, oracle, workspace, frozenset({unrelated})) is not None
+
+
+def _stub_round_trip(scenario, name: str, moves: list[tuple[float, float, float, float]]):
+    """Run a closed-loop episode whose planner proposes the first of `moves` (theta_pick, x, y,
+    theta_place) not excluded yet; returns the result and what the planner saw excluded."""
+    import dataclasses as dc
+
+    from tsad_drake.planning.plan_check import relocation_key
+    from tsad_drake.planning.types import Action, Plan
+
+    seen = []
+
+    def planner(state, feasibility, workspace, config, rng):
+        seen.append(set(config.excluded_actions))
+        for theta_pick, x, y, theta_place in moves:
+            if relocation_key(name, x, y) not in config.excluded_actions:
+                return Plan("stub", 0.0, [Action(name, theta_pick, x, y, theta_place)], False,
+                            "stub")
+        return Plan("stub", None, [], False, "nowhere left")
+
+    config = dc.replace(make_config("tsad"), excluded_actions=())
+    result = run_episode(scenario, planner, "oracle", _observe, config, seed=1,
+                         planner_name="stub", max_actions=6)
+    return result, seen
+
+
+def test_a_wasted_move_to_the_back_row_is_excluded_after_one_round():
+    """Scenario 2 seed 43: obj4's pick at -10 degrees runs the arm into the side wall (nothing
+    moves). The round leaves the scene as it was, so the move is excluded; its cell, 0.25375 m
+    deep, is a rounding tie at 4 decimals, and a key made from the rounded record had missed
+    the planner's key (the episode spun to the action limit)."""
+    from tsad_drake.execution.world import WorldModel
+    from tsad_drake.planning.plan_check import relocation_key
+
+    scenario = generate_scenario("2", 43)
+    workspace = make_workspace(scenario)
+    x, y = max((tuple(c) for c in workspace.cell_centres), key=lambda c: (c[0], c[1]))
+    assert round(x, 4) != round(round(x, 6), 4)  # the tie this test is about
+    world = WorldModel(scenario)
+    obj = world.object("obj4")
+    assert world.hits_wall(world.corridor(obj.x, obj.y, math.radians(-10.0)))
+    result, seen = _stub_round_trip(scenario, "obj4", [(math.radians(-10.0), x, y, 0.0)])
+    assert len(result.actions) == 1 and result.relocations == 0
+    assert relocation_key("obj4", x, y) in seen[-1]
+    assert not result.success and "nowhere left" in result.failure_reason
+
+
+def test_a_round_that_only_turns_an_object_where_it_stands_is_no_progress():
+    """An object picked and put back where it stands, turned, leaves every position as it was:
+    the round is a cycle and the move is excluded (the yaw is not part of the configuration)."""
+    from tsad_drake.planning.plan_check import relocation_key
+    from tsad_drake.scenario_generator import true_state
+
+    scenario = generate_scenario("1", 1)  # obj7: a cylinder, pickable head-on
+    state = true_state(scenario)
+    obj = state.objects[state.index("obj7")]
+    turn = (0.0, obj.x, obj.y, math.radians(20.0))
+    result, seen = _stub_round_trip(scenario, "obj7", [turn])
+    assert len(result.actions) == 1 and result.relocations == 1 and not result.fallen
+    assert relocation_key("obj7", obj.x, obj.y) in seen[-1]
+    assert not result.success and "nowhere left" in result.failure_reason
