@@ -5,21 +5,19 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from tsad_drake.execution.world import WorldModel
+from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.geometry2d import convex_polygon_distance, width_across
 from tsad_drake.planning.feasibility import OracleFeasibility
 from tsad_drake.planning.optimal import plan_optimal
-from tsad_drake.planning.state import make_workspace
+from tsad_drake.planning.state import make_workspace, true_state
 from tsad_drake.scenario import ScenarioError, load_scenario, save_scenario, validate
 from tsad_drake.scenario_generator import (
     BUILTIN_SCENARIOS,
-    generate_scenario,
-    plan_solvable,
     removal_solvable,
     scenario_defaults,
     target_blockers,
-    true_state,
 )
+from tsad_drake.scenes import generate_scenario, plan_solvable
 from tsad_drake.viewpoints import CameraConfig, target_visibility
 
 SCENES_PER_SCENARIO = 100
@@ -92,9 +90,9 @@ def test_solvability_check_replaces_a_scene_with_no_room_for_its_blockers():
     oracle = OracleFeasibility(scene, workspace)
     plan = plan_optimal(true_state(scene), oracle, workspace)
     assert plan.success and plan.actions
-    world = WorldModel(scene)
+    world = GeometricWorld(scene)
     for action in plan.actions:
-        world.apply(action)
+        world.execute(action)
     assert not world.fallen and world.failure == ""
     assert world.retrieve() and world.outcome().success
 

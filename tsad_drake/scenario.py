@@ -18,15 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
+from tsad_drake.errors import ScenarioError
 from tsad_drake.geometry2d import convex_polygon_distance, footprint_polygon
 
 SHAPES = ("cylinder", "box")
 #: object kinds: what role an object plays in the paper's scenarios
 KINDS = ("cylinder", "square_pillar", "rectangular", "large")
-
-
-class ScenarioError(ValueError):
-    """A scenario that is malformed or physically impossible (bad input: exit status 2)."""
 
 
 @dc.dataclass

@@ -11,21 +11,22 @@ object fits the fingers when its width across the approach is at most 0.080):
 Heights are 0.12-0.20 (large 0.15-0.22), below the 0.36 m shelf and above the 0.10 m the camera
 needs to see over the front row.
 
-Scenes follow the paper: the target sits in the back half and is only partly visible from the
-front (a fraction of its pixels in [min_visible, max_visible], measured on a label image rendered by
+Scenes follow the paper: the target sits in the back half and is only partly visible from the front
+(a fraction of its pixels in [min_visible, max_visible], measured on a label image rendered by
 `viewpoints.raycast` from the theta = 0 viewpoint); blockers are dropped between it and the front
 so that every approach angle is blocked by at least `min_blockers` objects; the remaining objects
-are packed into the deeper part of the shelf (the tightest of `packing` random valid spots), so free
-space is scarce but not scattered. A scene is kept only when its free space is scarce as in the
-paper (`free_cells`: cells a relocated object can be put in and reached, within
+are packed into the deeper part of the shelf (the tightest of `packing` random valid spots), so
+free space is scarce but not scattered. A scene is kept only when its free space is scarce as in
+the paper (`free_cells`: cells a relocated object can be put in and reached, within
 `GeneratorConfig.free_cells`), when removing pickable objects can free the target at all
-(`removal_solvable`, true shapes, cheap) and, last, when it can be solved with the placements
-the shelf really offers (`plan_solvable`: the `optimal` planner on the true shapes finds a plan
-within a node budget, so the check is deterministic). The paper's scenes were set up by hand and
-were solvable; without the last check about a quarter of scenario 2's draws (three long
-rectangles, scarce free space) left no room for the blockers. The check keeps the few scenes
-that are solvable but need more search than the budget out too (scenario 1 seeds 6 and 8 of the
-earlier generator, which TSAD solved). `python -m tsad_drake.bench.difficulty` measures the result.
+(`removal_solvable`, true shapes, cheap) and, last, when it can be solved with the placements the
+shelf really offers (the injected `solvable` check: `tsad_drake.scenes` asks the `optimal` planner
+on the true shapes for a plan within a node budget, so the check is deterministic). The paper's
+scenes were set up by hand and were solvable; without the last check about a quarter of scenario
+2's draws (three long rectangles, scarce free space) left no room for the blockers. The check keeps
+the few scenes that are solvable but need more search than the budget out too (scenario 1 seeds 6
+and 8 of the earlier generator, which TSAD solved). `python -m tsad_drake.bench.studies.difficulty`
+measures the result.
 
 The occluded variant puts a short target deep in the shelf and a front row of tall pickable
 objects (`occluded_front`, `occluded_front_height`) between it and the opening, and keeps the layout when
@@ -36,6 +37,7 @@ the front row reveal the target, then the planner takes over (section VI-D).
 from __future__ import annotations
 
 import dataclasses as dc
+from collections.abc import Callable
 
 import numpy as np
 
@@ -46,14 +48,10 @@ from tsad_drake.geometry2d import (
     convex_polygons_overlap_pairs,
     footprint_polygon,
     pad_polygons,
-    points_in_polygon,
     side_wall_polygons,
     width_across,
 )
-from tsad_drake.planning.feasibility import OracleFeasibility
-from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
-from tsad_drake.planning.state import grid_cell_centres, make_workspace
-from tsad_drake.planning.types import PlanningState, PlanObject
+from tsad_drake.planning.state import grid_cell_centres
 from tsad_drake.scenario import ObjectConfig, Scenario, ScenarioError, ShelfConfig, validate
 from tsad_drake.viewpoints import (
     CameraConfig,
@@ -62,6 +60,9 @@ from tsad_drake.viewpoints import (
     scenario_prisms,
     target_visibility,
 )
+
+#: (scene, node budget) -> whether the scene can be solved with the placements the shelf offers
+SolvabilityCheck = Callable[[Scenario, int], bool]
 
 BUILTIN_SCENARIOS = ("1", "2", "3", "real")
 
@@ -96,7 +97,7 @@ class GeneratorConfig:
     occluded_front_height: tuple[float, float] = (0.185, 0.20)  #: m, height range of the front row
     #: whole-scene attempts for the occluded variant (hidden and solvable is the rarer draw)
     occluded_max_attempts: int = 2000
-    #: node budget of the solvability check (`plan_solvable`: the `optimal` planner on true
+    #: node budget of the solvability check (`scenes.plan_solvable`: the `optimal` planner on true
     #: shapes must find a plan within it); 0 skips the check (training data needs no guarantee)
     solvable_nodes: int = 1000
 
@@ -104,7 +105,7 @@ class GeneratorConfig:
 #: default 2-4 its scenes needed more actions than the paper's: `optimal` 4.23 on the bench seeds,
 #: while the paper's TSAD took 3.72 (so the paper's scenes need at most that on average), and GP3
 #: succeeded less often (0.17 with the oracle, paper 0.33). With 2-3, seeds 0-59: `optimal` 3.63,
-#: GP3 0.25 (`python -m tsad_drake.bench.difficulty`). Scenarios 2 and 3 already match the paper
+#: GP3 0.25 (`python -m tsad_drake.bench.studies.difficulty`). Scenarios 2 and 3 already match the paper
 #: on both (optimal 3.90 / 3.97 <= its TSAD's 3.96 / 4.71; GP3 0.20 / 0.30 vs 0.17 / 0.20).
 SCENARIO1_BLOCKERS = (2, 3)
 
@@ -307,35 +308,6 @@ def removal_solvable(scenario: Scenario) -> bool:
         present &= ~movable
 
 
-def true_state(scenario: Scenario, spacing: float = 0.01) -> PlanningState:
-    """The planning state of `scenario` as the true shapes give it: each object's footprint filled
-    with points `spacing` apart (plus its corners) at its top height, named as in the scenario."""
-    objects = []
-    for o in scenario.objects:
-        poly = o.footprint()
-        lo, hi = poly.min(axis=0), poly.max(axis=0)
-        gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + 1e-9, spacing),
-                             np.arange(lo[1], hi[1] + 1e-9, spacing), indexing="ij")
-        grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
-        xy = np.concatenate([poly, grid[points_in_polygon(grid, poly)]])
-        points = np.column_stack([xy, np.full(len(xy), o.size[-1])])
-        points.setflags(write=False)
-        pose = (float(o.x), float(o.y), float(o.yaw))
-        objects.append(PlanObject(o.name, points, *pose, origin=pose))
-    return PlanningState(tuple(objects), scenario.target)
-
-
-def plan_solvable(scenario: Scenario, max_nodes: int) -> bool:
-    """Whether the `optimal` planner, on the oracle model and the true state, finds relocations
-    after which the target can be taken out, within `max_nodes` expanded nodes (no time limit, so
-    the answer does not depend on the machine)."""
-    workspace = make_workspace(scenario)
-    config = OptimalConfig(max_nodes=max_nodes, time_limit_s=float("inf"))
-    plan = plan_optimal(true_state(scenario), OracleFeasibility(scenario, workspace), workspace,
-                        config)
-    return plan.success
-
-
 def _target_hidden(scenario: Scenario, camera: CameraConfig) -> bool:
     """True when no pixel of the target shows in any view (front view and extremes first)."""
     index = scenario.target_index()
@@ -347,10 +319,17 @@ def _target_hidden(scenario: Scenario, camera: CameraConfig) -> bool:
     return True
 
 
-def generate_scenario(name: str, seed: int, occluded: bool = False,
-                      config: GeneratorConfig | None = None,
-                      camera: CameraConfig | None = None) -> Scenario:
-    """A random scene of built-in scenario `name` ("1", "2", "3" or "real"), reproducible by seed."""
+def generate_scene(name: str, seed: int, solvable: SolvabilityCheck | None,
+                   occluded: bool = False, config: GeneratorConfig | None = None,
+                   camera: CameraConfig | None = None) -> Scenario:
+    """A random scene of built-in scenario `name` ("1", "2", "3" or "real"), reproducible by seed.
+
+    `solvable(scene, max_nodes)` is the last check a kept scene passes when the config's
+    `solvable_nodes` is positive (`tsad_drake.scenes` gives the `optimal` planner's); None with a
+    positive `solvable_nodes` is an error, so no caller skips the check by accident.
+    """
+    if solvable is None and (config or scenario_defaults(name)[1]).solvable_nodes:
+        raise ValueError("generate_scene needs a solvability check when solvable_nodes > 0")
     shelf, default_cfg = scenario_defaults(name)
     cfg = config or default_cfg
     camera = camera or CameraConfig()
@@ -358,7 +337,7 @@ def generate_scenario(name: str, seed: int, occluded: bool = False,
     base = Scenario(name=name, seed=seed, shelf=shelf, occluded=occluded)
     attempts = cfg.occluded_max_attempts if occluded else cfg.max_attempts
     for _ in range(attempts):
-        scenario = _attempt(base, cfg, camera, rng, occluded)
+        scenario = _attempt(base, cfg, camera, rng, occluded, solvable)
         if scenario is not None:
             validate(scenario)
             return scenario
@@ -366,7 +345,8 @@ def generate_scenario(name: str, seed: int, occluded: bool = False,
 
 
 def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
-             rng: np.random.Generator, occluded: bool) -> Scenario | None:
+             rng: np.random.Generator, occluded: bool,
+             solvable: SolvabilityCheck | None) -> Scenario | None:
     shelf = base.shelf
     half_w = shelf.width / 2
     target = _sample_object("cylinder" if rng.random() < 0.5 else "square_pillar", "target", rng)
@@ -410,6 +390,6 @@ def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
             return None
     elif not cfg.min_visible <= target_visibility(scenario, camera, 0.0) <= cfg.max_visible:
         return None
-    if cfg.solvable_nodes and not plan_solvable(scenario, cfg.solvable_nodes):
+    if cfg.solvable_nodes and not solvable(scenario, cfg.solvable_nodes):
         return None
     return scenario

@@ -38,17 +38,11 @@ from tsad_drake.station_ik import solve_observation_poses
 from tsad_drake.station_models import (
     FINGER_JOINTS,
     FINGER_OPEN,
-    RESERVED_LABEL,
     UR5E_JOINTS,
     X_SO,
-    add_ground,
-    add_object,
-    add_robot,
-    add_shelf,
+    add_scene,
     filter_robot_collisions,
     labels_to_object_indices,
-    make_parser,
-    relabel_model,
 )
 from tsad_drake.viewpoints import CameraConfig
 
@@ -194,13 +188,8 @@ def MakeStation(scenario: Scenario, meshcat: Meshcat | None = None,
                                            builder)
     scene_graph.AddRenderer(config.renderer_name, MakeRenderEngineVtk(RenderEngineVtkParams()))
 
-    robot, gripper = add_robot(plant, make_parser(plant), RigidTransform())
-    relabel_model(plant, scene_graph, [robot, gripper], RESERVED_LABEL)
-    add_ground(plant)
-    add_shelf(plant, scenario.shelf, X_WS)
-    target = scenario.target
-    object_bodies = [add_object(plant, obj, i, obj.name == target)
-                     for i, obj in enumerate(scenario.objects)]
+    models = add_scene(plant, scenario, X_WS, relabel_in=scene_graph)
+    robot, gripper, object_bodies = models.robot, models.gripper, models.object_bodies
     for obj, body in zip(scenario.objects, object_bodies, strict=True):
         plant.SetDefaultFloatingBaseBodyPose(body, X_WS @ X_SO(obj))
     plant.Finalize()

@@ -23,11 +23,8 @@ from tsad_drake.station_models import (
     FINGER_JOINTS,
     FINGER_OPEN,
     UR5E_JOINTS,
-    add_ground,
-    add_robot,
-    add_shelf,
+    add_scene,
     filter_robot_collisions,
-    make_parser,
 )
 from tsad_drake.viewpoints import CameraConfig, camera_pose
 
@@ -42,9 +39,8 @@ class ArmIK:
     def __init__(self, scenario: Scenario, X_WB: RigidTransform, X_WS: RigidTransform):
         builder = DiagramBuilder()
         self.plant, self.scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
-        self.robot, self.gripper = add_robot(self.plant, make_parser(self.plant), X_WB)
-        add_ground(self.plant)
-        add_shelf(self.plant, scenario.shelf, X_WS)
+        models = add_scene(self.plant, scenario, X_WS, X_WB, objects=False)
+        self.robot, self.gripper = models.robot, models.gripper
         self.plant.Finalize()
         filter_robot_collisions(self.plant, self.scene_graph, self.robot, self.gripper)
         self.diagram = builder.Build()

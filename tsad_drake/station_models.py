@@ -1,7 +1,8 @@
 """Plant contents for the station: parser with the shipped package, UR5e + gripper, shelf, objects.
 
-Each function adds one thing to a MultibodyPlant (before Finalize), so the station and the
-observation-pose IK build their plants from the same pieces. The robot models come from
+Each `add_*` function adds one thing to a MultibodyPlant (before Finalize); `add_scene` adds them all
+in one fixed order, so the station, the observation-pose IK and the motion export build the same plant
+(same position vector). The robot models come from
 `models/package.xml` (`package://tsad_drake/...`); the shelf and the objects are built from the
 Scenario in code (boxes and cylinders), with the shelf panels taken from `viewpoints.shelf_prisms` so
 that Drake's geometry and the NumPy ray caster describe the very same shelf.
@@ -13,6 +14,7 @@ label image to the ray caster's convention (object index, -1 otherwise).
 
 from __future__ import annotations
 
+import dataclasses as dc
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +38,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import CoulombFriction, MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex, RigidBody, SpatialInertia, UnitInertia
 
-from tsad_drake.scenario import ObjectConfig, ShelfConfig
+from tsad_drake.scenario import ObjectConfig, Scenario, ShelfConfig
 from tsad_drake.viewpoints import BACKGROUND_LABEL, shelf_prisms
 
 #: models/package.xml of this repository (package name `tsad_drake`)
@@ -167,6 +169,42 @@ def relabel_model(plant: MultibodyPlant, scene_graph: SceneGraph,
                 new.UpdateProperty("label", "id", label)
                 scene_graph.RemoveRole(source_id, geometry_id, Role.kPerception)
                 scene_graph.AssignRole(source_id, geometry_id, new)
+
+
+@dc.dataclass(frozen=True)
+class SceneModels:
+    """What `add_scene` put into the plant: the model instances and the objects' free bodies."""
+
+    robot: ModelInstanceIndex
+    gripper: ModelInstanceIndex
+    shelf: ModelInstanceIndex
+    #: object name -> free body, in scenario order (left out of the hash: a dict is unhashable)
+    objects: dict[str, RigidBody] = dc.field(hash=False)
+
+    @property
+    def object_bodies(self) -> list[RigidBody]:
+        """The objects' free bodies in scenario order."""
+        return list(self.objects.values())
+
+
+def add_scene(plant: MultibodyPlant, scenario: Scenario, X_WS: RigidTransform,
+              X_WB: RigidTransform | None = None, objects: bool = True,
+              relabel_in: SceneGraph | None = None) -> SceneModels:
+    """Add robot, ground, shelf, then the objects, in this fixed order (one q layout for every plant).
+
+    X_WB places the robot base (default: the world origin), X_WS the shelf frame. `objects=False`
+    leaves the objects out; `relabel_in` (the rendering station's SceneGraph) gives the robot and
+    gripper RESERVED_LABEL right after they are parsed. The caller finalizes the plant.
+    """
+    robot, gripper = add_robot(plant, make_parser(plant),
+                               X_WB if X_WB is not None else RigidTransform())
+    if relabel_in is not None:
+        relabel_model(plant, relabel_in, [robot, gripper], RESERVED_LABEL)
+    add_ground(plant)
+    shelf = add_shelf(plant, scenario.shelf, X_WS)
+    bodies = {obj.name: add_object(plant, obj, i, obj.name == scenario.target)
+              for i, obj in enumerate(scenario.objects)} if objects else {}
+    return SceneModels(robot, gripper, shelf, bodies)
 
 
 def filter_robot_collisions(plant: MultibodyPlant, scene_graph: SceneGraph,

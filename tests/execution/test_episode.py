@@ -6,20 +6,37 @@ import math
 import numpy as np
 import pytest
 
-from tsad_drake.execution.episode import run_episode
+from tsad_drake.execution.episode import EpisodeLimits, run_episode
+from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
-from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.pipeline import make_feasibility
 from tsad_drake.planning.pick_veto import PickVeto
 from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.scenario_generator import generate_scenario
+from tsad_drake.scenes import generate_scenario
+
+
+def _observe(truth):
+    return observe_raycast(truth).scene
+
+
+def _run(scenario, planner="tsad", feasibility="oracle", config=None, seed=1, **kwargs):
+    """One episode in the geometric world with ray-cast observation; `planner` is a registry
+    name or a `PlannerSpec` (a stub planner: TSAD's entry with another plan function)."""
+    spec = get_planner(planner) if isinstance(planner, str) else planner
+    world = GeometricWorld(scenario, _observe)
+
+    def model(truth, workspace):
+        return make_feasibility(feasibility, truth, workspace)
+
+    config = config if config is not None else make_config(spec.name)
+    return run_episode(world, spec, model, config, seed, feasibility_name=feasibility, **kwargs)
+
 
 
 def test_closed_loop_episode_succeeds_and_serialises():
     scenario = generate_scenario("1", 1)
-    result = run_episode(scenario, get_planner("tsad"), "oracle",
-                         lambda s: observe_raycast(s).scene, make_config("tsad"), seed=1,
-                         planner_name="tsad")
+    result = _run(scenario)
     assert result.success and result.falls == 0, result.failure_reason
     assert result.num_actions == len(result.actions) + 1  # relocations plus the retrieval
     assert len(result.rounds) >= 2  # planned, executed the first sub-search, observed again
@@ -35,9 +52,7 @@ def test_tsad_on_the_shipped_network_retrieves_the_target():
     """TSAD planning on the prehensile network (`--feasibility net`, its default weights): the
     episode succeeds in the world model (true shapes) and counts its network queries."""
     scenario = generate_scenario("1", 1)
-    config = make_config("tsad")
-    result = run_episode(scenario, get_planner("tsad"), "net",
-                         lambda s: observe_raycast(s).scene, config, seed=1, planner_name="tsad")
+    result = _run(scenario, feasibility="net")
     assert result.success and result.falls == 0, result.failure_reason
     assert result.num_actions == len(result.actions) + 1
     assert result.network_evaluations > 0 and result.network_seconds > 0
@@ -50,25 +65,20 @@ def test_bad_names_and_limits():
         make_config("tsad", "no-xx")
     assert make_config("tsad", "no-ro").use_ro is False
     with pytest.raises(ValueError, match="max_actions"):
-        run_episode(generate_scenario("1", 1), get_planner("tsad"), "oracle",
-                    lambda s: observe_raycast(s).scene, make_config("tsad"), seed=0, max_actions=0)
+        _run(generate_scenario("1", 1), seed=0, limits=EpisodeLimits(max_actions=0))
 
 
-def _observe(truth):
-    return observe_raycast(truth).scene
 
 
 @pytest.fixture(scope="module")
 def baseline():
     """Scene 1/1 and its oracle TSAD episode with no motion check (what the checks below refuse)."""
     scenario = generate_scenario("1", 1)
-    return scenario, run_episode(scenario, get_planner("tsad"), "oracle", _observe,
-                                 make_config("tsad"), seed=1, planner_name="tsad")
+    return scenario, _run(scenario)
 
 
 def test_rejected_actions_are_excluded_and_tsad_plans_again(baseline):
     scenario, unchecked = baseline
-    observe = _observe
     first = unchecked.actions[0]
     rejected_key = (first["true_object"], first["place_xy"][0], first["place_xy"][1])
     checked = []
@@ -78,8 +88,7 @@ def test_rejected_actions_are_excluded_and_tsad_plans_again(baseline):
         key = (action.object, round(action.x, 6), round(action.y, 6))
         return (key != rejected_key, "" if key != rejected_key else "boxed in")
 
-    result = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
-                         seed=1, planner_name="tsad", action_check=check)
+    result = _run(scenario, action_check=check)
     executed = [(a["true_object"], a["place_xy"][0], a["place_xy"][1]) for a in result.actions]
     assert rejected_key not in executed
     rejections = [c for c in result.motion_checks if not c["verified"]]
@@ -91,10 +100,9 @@ def test_rejected_actions_are_excluded_and_tsad_plans_again(baseline):
 
 
 def test_always_rejecting_check_ends_the_episode_as_a_failure():
-    result = run_episode(generate_scenario("1", 1), get_planner("tsad"), "oracle",
-                         lambda s: observe_raycast(s).scene, make_config("tsad"), seed=1,
-                         action_check=lambda truth, action: (False, "unreachable"),
-                         max_rejections=3)
+    result = _run(generate_scenario("1", 1),
+                  action_check=lambda truth, action: (False, "unreachable"),
+                  limits=EpisodeLimits(max_rejections=3))
     assert not result.success and not result.actions
     assert "no motion-feasible action" in result.failure_reason
     assert len(result.motion_checks) == 4
@@ -102,7 +110,6 @@ def test_always_rejecting_check_ends_the_episode_as_a_failure():
 
 def test_a_pick_rejected_at_one_angle_is_retried_at_another(baseline):
     scenario, unchecked = baseline
-    observe = _observe
     first = unchecked.actions[0]
     vetoed = (first["true_object"], round(first["theta_pick_deg"]))
 
@@ -110,8 +117,7 @@ def test_a_pick_rejected_at_one_angle_is_retried_at_another(baseline):
         bad = (action.object, round(math.degrees(action.theta_pick))) == vetoed
         return (not bad, "pick: keyframe grasp: no IK" if bad else "")
 
-    result = run_episode(scenario, get_planner("tsad"), "oracle", observe, make_config("tsad"),
-                         seed=1, planner_name="tsad", action_check=check)
+    result = _run(scenario, action_check=check)
     assert result.success, result.failure_reason
     picks = [(a["true_object"], round(a["theta_pick_deg"])) for a in result.actions]
     assert vetoed not in picks
@@ -146,8 +152,8 @@ def test_a_round_that_brings_the_scene_back_excludes_the_moves_that_did():
 
     from tsad_drake.planning.actions import UntriedActions
     from tsad_drake.planning.plan_check import relocation_key
+    from tsad_drake.planning.state import true_state
     from tsad_drake.planning.types import Action, Plan
-    from tsad_drake.scenario_generator import true_state
 
     scenario = generate_scenario("1", 1)
     workspace = make_workspace(scenario)
@@ -171,37 +177,13 @@ def test_a_round_that_brings_the_scene_back_excludes_the_moves_that_did():
         return Plan("stub", None, [], False, "nowhere left")
 
     config = dc.replace(make_config("tsad"), excluded_actions=())
-    result = run_episode(scenario, back_and_forth, "oracle", _observe, config, seed=1,
-                         planner_name="stub")
+    result = _run(scenario, dc.replace(get_planner("tsad"), plan=back_and_forth), config=config)
     placed = [tuple(a["place_xy"]) for a in result.actions]
     a, b, c = [(round(x, 6), round(y, 6)) for x, y in cells]
     assert placed == [a, b, a, c], placed
     assert relocation_key(name, *a) in seen_exclusions[-1]
     assert relocation_key(name, *b) in seen_exclusions[-1]
     assert not result.success and "nowhere left" in result.failure_reason
-
-
-def test_the_rest_of_a_plan_is_not_reused_once_one_of_its_relocations_is_excluded():
-    """The closed loop keeps the rest of the last plan while it is still feasible, but never one
-    that holds a relocation excluded since (a motion refusal or the cycle guard): that would
-    execute an excluded relocation."""
-    from tsad_drake.execution.episode import _reused
-    from tsad_drake.planning.plan_check import action_key
-
-    scenario = generate_scenario("2", 16)  # five blockers: TSAD's plan has several sub-searches
-    workspace = make_workspace(scenario)
-    state = state_from_perception(_observe(scenario))
-    oracle = make_feasibility("oracle", scenario, workspace)
-    plan = get_planner("tsad")(state, oracle, workspace, make_config("tsad"),
-                               np.random.default_rng(16))
-    assert plan.success and len(plan.actions) >= 2
-    kept = _reused(plan, state, oracle, workspace)
-    assert kept is not None and kept.stats["reused"]
-    assert [action_key(a) for a in kept.actions] == [action_key(a) for a in plan.actions]
-    last = action_key(plan.actions[-1])
-    assert _reused(plan, state, oracle, workspace, frozenset({last})) is None
-    unrelated = (plan.actions[-1].object, 9.0, 9.0)
-    assert _reused(plan, state, oracle, workspace, frozenset({unrelated})) is not None
 
 
 def _stub_round_trip(scenario, name: str, moves: list[tuple[float, float, float, float]]):
@@ -223,8 +205,8 @@ def _stub_round_trip(scenario, name: str, moves: list[tuple[float, float, float,
         return Plan("stub", None, [], False, "nowhere left")
 
     config = dc.replace(make_config("tsad"), excluded_actions=())
-    result = run_episode(scenario, planner, "oracle", _observe, config, seed=1,
-                         planner_name="stub", max_actions=6)
+    result = _run(scenario, dc.replace(get_planner("tsad"), plan=planner), config=config,
+                  limits=EpisodeLimits(max_actions=6))
     return result, seen
 
 
@@ -233,14 +215,14 @@ def test_a_wasted_move_to_the_back_row_is_excluded_after_one_round():
     moves). The round leaves the scene as it was, so the move is excluded; its cell, 0.25375 m
     deep, is a rounding tie at 4 decimals, and a key made from the rounded record had missed
     the planner's key (the episode spun to the action limit)."""
-    from tsad_drake.execution.world import WorldModel
+    from tsad_drake.execution.world import GeometricWorld
     from tsad_drake.planning.plan_check import relocation_key
 
     scenario = generate_scenario("2", 43)
     workspace = make_workspace(scenario)
     x, y = max((tuple(c) for c in workspace.cell_centres), key=lambda c: (c[0], c[1]))
     assert round(x, 4) != round(round(x, 6), 4)  # the tie this test is about
-    world = WorldModel(scenario)
+    world = GeometricWorld(scenario)
     obj = world.object("obj4")
     assert world.hits_wall(world.corridor(obj.x, obj.y, math.radians(-10.0)))
     result, seen = _stub_round_trip(scenario, "obj4", [(math.radians(-10.0), x, y, 0.0)])
@@ -253,7 +235,7 @@ def test_a_round_that_only_turns_an_object_where_it_stands_is_no_progress():
     """An object picked and put back where it stands, turned, leaves every position as it was:
     the round is a cycle and the move is excluded (the yaw is not part of the configuration)."""
     from tsad_drake.planning.plan_check import relocation_key
-    from tsad_drake.scenario_generator import true_state
+    from tsad_drake.planning.state import true_state
 
     scenario = generate_scenario("1", 1)  # obj7: a cylinder, pickable head-on
     state = true_state(scenario)

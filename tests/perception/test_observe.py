@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from tsad_drake.perception.observe import observe, observe_raycast, summary_table
-from tsad_drake.perception.prehensile_data import training_generator
-from tsad_drake.scenario_generator import generate_scenario
+from tsad_drake.prehensile.dataset import training_generator
+from tsad_drake.scenes import generate_scenario
 from tsad_drake.viewpoints import CameraConfig, camera_pose, raycast, scenario_prisms
 
 

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from tsad_drake.bench.perception_timing import pose_errors
+from tsad_drake.bench.studies.perception_timing import pose_errors
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.perception.pose import (
     PoseConfig,
@@ -13,8 +13,8 @@ from tsad_drake.perception.pose import (
     fit_circle,
     fit_rectangle_yaw,
 )
-from tsad_drake.perception.prehensile_data import training_generator
-from tsad_drake.scenario_generator import generate_scenario
+from tsad_drake.prehensile.dataset import training_generator
+from tsad_drake.scenes import generate_scenario
 
 #: stated tolerances for visible objects (>= 100 fused points) on noise-free ray-cast scenes
 CENTRE_TOLERANCE = 0.005  #: m

@@ -12,7 +12,7 @@ from tsad_drake.perception.segmentation import (
     segment_by_label,
 )
 from tsad_drake.scenario import ObjectConfig, Scenario
-from tsad_drake.scenario_generator import generate_scenario
+from tsad_drake.scenes import generate_scenario
 
 SCENES = [("1", 0), ("1", 1), ("2", 0), ("2", 1), ("3", 0), ("3", 1)]
 

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tsad_drake.execution.world import WorldModel
+from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
-from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.pipeline import make_feasibility
 from tsad_drake.planning.gp3 import GP3Config, gp3_optimal_angle, plan_gp3
 from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.registry import PLANNERS, make_config
@@ -80,9 +80,9 @@ def scenes():
 
 def _execute(scenario, plan):
     """Replay the plan in the world model on the true scene; return the world after retrieval."""
-    world = WorldModel(scenario)
+    world = GeometricWorld(scenario)
     for action in plan.actions:
-        world.apply(action)
+        world.execute(action)
     world.retrieve()
     return world
 
@@ -153,7 +153,7 @@ def test_optimal_respects_its_budget(scenes):
 def test_rots_searches_end_on_their_node_budget(planner, scenes):
     _, workspace, state, oracle = scenes["two"]
     config = dc.replace(make_config(planner), max_nodes=1)
-    plan = PLANNERS[planner](state, oracle, workspace, config)
+    plan = PLANNERS[planner].plan(state, oracle, workspace, config)
     assert not plan.success and plan.failure_reason == "search budget exhausted"
     assert plan.stats["nodes"] == 1
 
@@ -165,14 +165,14 @@ def test_plans_do_in_the_world_what_they_claim(planner, scenes):
     config = make_config(planner.removesuffix("-corridor"))
     if planner == "gp3-corridor":
         config = dc.replace(config, avoid_target_corridor=True)
-    plan = PLANNERS[planner.removesuffix("-corridor")](state, oracle, workspace, config,
+    plan = PLANNERS[planner.removesuffix("-corridor")].plan(state, oracle, workspace, config,
                                                       np.random.default_rng(1))
     if planner == "gp3":
         # the paper's placement rule puts a blocker back in the target's way here, and says so
         assert not plan.success and plan.failure_reason == "the placements block the target"
-        world = WorldModel(scenario)
+        world = GeometricWorld(scenario)
         for action in plan.actions:
-            world.apply(action)
+            world.execute(action)
         assert world.relocations == len(plan.actions) and world.retrieval_angle() is None
         return
     assert plan.success, plan.failure_reason
@@ -184,7 +184,7 @@ def test_plans_do_in_the_world_what_they_claim(planner, scenes):
 @pytest.mark.parametrize("planner", ["gp3", "rots", "rots-star", "rots-star-search"])
 def test_same_seed_same_plan(planner, scenes):
     _, workspace, state, oracle = scenes["two"]
-    run = [PLANNERS[planner](state, oracle, workspace, make_config(planner),
+    run = [PLANNERS[planner].plan(state, oracle, workspace, make_config(planner),
                              np.random.default_rng(7)) for _ in range(2)]
     assert run[0].actions == run[1].actions and run[0].theta_star == run[1].theta_star
 
@@ -201,5 +201,5 @@ def test_rots_ignores_shape_and_knocks_over_what_rots_star_leaves(scenes):
     assert "rect" in rots_world.fallen and not rots_world.success
     assert star_world.success and star_world.fallen == []
     assert len(rots_world.fallen) > len(star_world.fallen)
-    search = PLANNERS["rots-star-search"](state, oracle, workspace, make_config("rots-star-search"))
+    search = PLANNERS["rots-star-search"].plan(state, oracle, workspace, make_config("rots-star-search"))
     assert search.success and _execute(scenario, search).success

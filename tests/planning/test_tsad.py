@@ -9,14 +9,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tsad_drake.execution.world import WorldModel
+from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
+from tsad_drake.pipeline import make_feasibility
 from tsad_drake.planning.baseline_common import Budget
-from tsad_drake.planning.feasibility import make_feasibility
+from tsad_drake.planning.pick_veto import PickVeto
 from tsad_drake.planning.plan_check import plan_still_valid, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.tsad import TSADConfig, plan_tsad
+from tsad_drake.planning.tsad import plan_tsad
+from tsad_drake.planning.tsad_config import TSADConfig
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import GridConfig, GripperConfig, ObjectConfig, Scenario, ShelfConfig
 from tsad_drake.scenario_generator import target_blockers
@@ -98,9 +100,9 @@ def test_rearrangement_set_shrinks_and_termination_conditions_hold(key, scenes, 
 def test_plan_outcome_in_world_model_matches_claim(key, scenes, plans):
     scenario, _, _ = scenes[key]
     plan = plans[key]
-    world = WorldModel(scenario)
+    world = GeometricWorld(scenario)
     for action in plan.actions:
-        world.apply(action)
+        world.execute(action)
     assert world.retrieve()
     outcome = world.outcome()
     assert outcome.success and outcome.falls == 0
@@ -230,8 +232,8 @@ def test_plan_check_accepts_the_plan_and_rejects_a_cut_or_broken_one(scenes, pla
 
 @pytest.mark.parametrize("model_name", ["oracle", "geometric"])
 def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(model_name):
-    from tsad_drake.planning.actions import SAME_PLACE, UntriedActions, place_options
-    from tsad_drake.planning.feasibility import approach_order
+    from tsad_drake.planning.actions import SAME_PLACE, UntriedActions
+    from tsad_drake.planning.interface import approach_order
     from tsad_drake.planning.types import Action
 
     scenario = load_scene("2", 3)  # obj0 reaches its useful cell from another pick angle only
@@ -253,7 +255,7 @@ def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(mo
         pickable = model.pickable(state, i)
         picks = [float(angles[k]) for k in approach_order(angles, 0.0) if pickable[k]]
         for n, theta_pick in enumerate(picks):
-            options = place_options(model, state, i, theta_pick, workspace)
+            options = model.place_options(state, i, theta_pick)
             for c in np.nonzero(np.isfinite(options))[0]:
                 x, y = (float(v) for v in workspace.cell_centres[c])
                 if np.hypot(x - obj.x, y - obj.y) >= SAME_PLACE and (obj.name, x, y) not in eager:
@@ -279,20 +281,21 @@ def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(mo
     assert again.pop() == expected[1]
 
 
-class _WithRolloutModel:
+class _WithRolloutModel(PickVeto):
     """A feasibility model whose rollouts draw actions with another (cheaper) model, as the
-    network's do with its point-cloud placement model."""
+    network's do with its point-cloud placement model (a PickVeto that vetoes nothing)."""
 
     def __init__(self, own, rollout_model):
-        self._own, self.rollout_model = own, rollout_model
+        super().__init__(own, set())
+        self._rollout = rollout_model
 
-    def __getattr__(self, name):
-        return getattr(self._own, name)
+    def rollout_model(self):
+        return self._rollout
 
 
 def test_fast_rollouts_join_the_tree_only_as_actions_of_the_searchs_own_model(scenes):
-    from tsad_drake.planning.feasibility import angle_index
-    from tsad_drake.planning.tsad import EmptyCells, SubSearch
+    from tsad_drake.planning.interface import angle_index
+    from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 
     scenario, workspace, state = scenes[("1", 0)]
     oracle = make_feasibility("oracle", scenario, workspace)
@@ -300,9 +303,9 @@ def test_fast_rollouts_join_the_tree_only_as_actions_of_the_searchs_own_model(sc
     plan = plan_tsad(state, model, workspace, CONFIG, np.random.default_rng(0))
     assert plan.success and plan_still_valid(state, plan.actions, plan.theta_star, oracle,
                                              workspace)
-    world = WorldModel(scenario)
+    world = GeometricWorld(scenario)
     for action in plan.actions:
-        world.apply(action)
+        world.execute(action)
     assert world.retrieve() and not world.fallen
 
     # recheck: an object the search's model cannot pick ends the path; a pickable one is
@@ -310,7 +313,7 @@ def test_fast_rollouts_join_the_tree_only_as_actions_of_the_searchs_own_model(sc
     k = angle_index(workspace.approach_angles, plan.theta_star)
     search = SubSearch(state, k, model, workspace, CONFIG, np.random.default_rng(0),
                        EmptyCells(workspace), 0)
-    assert search.rollout_model is model.rollout_model
+    assert search.rollout_model is model.rollout_model()
     stuck = [i for i, o in enumerate(state.objects)
              if o.name != state.target and not oracle.pickable(state, i).any()]
     free = [i for i, o in enumerate(state.objects)
@@ -343,8 +346,8 @@ def test_a_cell_reached_only_from_another_pick_angle_is_an_action():
     front-right cell, turned by 20 degrees) cannot be made when obj0 is picked at the retrieval
     angle (10 degrees), only from 0 or -10: the action set takes the pick angle per cell, and
     TSAD finds the one-relocation plan that `optimal` finds."""
-    from tsad_drake.planning.actions import UntriedActions, place_options
-    from tsad_drake.planning.feasibility import angle_index
+    from tsad_drake.planning.actions import UntriedActions
+    from tsad_drake.planning.interface import angle_index
 
     scenario = load_scene("2", 3)
     workspace = make_workspace(scenario)
@@ -354,7 +357,7 @@ def test_a_cell_reached_only_from_another_pick_angle_is_an_action():
     cells = workspace.cell_centres
     cell = int(np.argmin(np.hypot(cells[:, 0] - 0.06625, cells[:, 1] + 0.1075)))
     prefer = np.radians(10.0)
-    assert np.isnan(place_options(oracle, state, i, prefer, workspace)[cell])
+    assert np.isnan(oracle.place_options(state, i, prefer)[cell])
     action = UntriedActions(oracle, state, workspace, [], prefer).check(i, cell)
     assert action is not None and not np.isclose(action.theta_pick, prefer)
     assert oracle.pickable(state, i)[angle_index(workspace.approach_angles, action.theta_pick)]
@@ -363,8 +366,8 @@ def test_a_cell_reached_only_from_another_pick_angle_is_an_action():
 
     plan = plan_tsad(state, oracle, workspace, CONFIG, np.random.default_rng(3))
     assert plan.success and len(plan.actions) == 1 and plan.actions[0].object == "obj0"
-    world = WorldModel(scenario)
-    world.apply(plan.actions[0])
+    world = GeometricWorld(scenario)
+    world.execute(plan.actions[0])
     assert world.retrieve() and not world.fallen
 
 
@@ -396,9 +399,9 @@ def test_shortened_plans_are_split_into_sub_searches_afresh(key, scenes, plans):
     shortened = shorten_plan(state, longer, plan.theta_star, oracle, workspace)
     assert len(shortened) <= len(plan.actions)
     assert plan_still_valid(state, shortened, plan.theta_star, oracle, workspace)
-    world = WorldModel(scenario)
+    world = GeometricWorld(scenario)
     for action in shortened:
-        world.apply(action)
+        world.execute(action)
     assert world.retrieve() and not world.fallen
     # moving an object to where it already is is no action (a merge of two moves can end there)
     from tsad_drake.planning.plan_check import replay_plan
@@ -409,8 +412,8 @@ def test_shortened_plans_are_split_into_sub_searches_afresh(key, scenes, plans):
 
 
 def test_a_sub_search_offers_distinct_terminal_states_best_first(scenes):
-    from tsad_drake.planning.feasibility import angle_index
-    from tsad_drake.planning.tsad import EmptyCells, SubSearch, optimal_angle
+    from tsad_drake.planning.interface import angle_index
+    from tsad_drake.planning.tsad_search import EmptyCells, SubSearch, optimal_angle
 
     scenario, workspace, state = scenes[("1", 0)]
     oracle = make_feasibility("oracle", scenario, workspace)
@@ -449,7 +452,7 @@ def test_a_move_there_and_back_is_dropped_as_a_pair():
     assert replay_plan(state, searched, theta_star, geometric, workspace, groups=False)
     shortened = shorten_plan(state, searched, theta_star, geometric, workspace)
     assert len(shortened) == 5 and [x.object for x in shortened].count("obj7") == 2
-    world = WorldModel(scenario)
+    world = GeometricWorld(scenario)
     for action in shortened:
-        world.apply(action)
+        world.execute(action)
     assert world.retrieve() and not world.fallen

@@ -20,6 +20,10 @@ import traceback
 from pathlib import Path
 
 from tsad_drake.bench.metrics import summarise
+from tsad_drake.pipeline import EpisodeSettings, run_settings
+from tsad_drake.prehensile.checkpoint import weights_digest
+from tsad_drake.scenario import Scenario, scene_digest
+from tsad_drake.scenes import generate_scenario
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
@@ -44,12 +48,28 @@ class EpisodeSpec:
         return tuple(getattr(self, k) for k in SPEC_KEYS)
 
 
+def run_named_episode(spec: EpisodeSpec) -> dict:
+    """Bench entry point: an `EpisodeSpec` (built-in scenario name + seed) -> JSON row."""
+    scenario = spec_scenario(spec)
+    settings = EpisodeSettings(planner=spec.planner, feasibility=spec.feasibility,
+                               ablation=spec.ablation, observer=spec.observer,
+                               closed_loop=spec.closed_loop, motion=spec.motion)
+    row = run_settings(scenario, spec.seed, settings)
+    row["scene_digest"] = scene_digest(scenario)
+    if spec.feasibility == "net":
+        row["weights_digest"] = weights_digest()
+    return row
+
+
+def spec_scenario(spec: EpisodeSpec) -> Scenario:
+    """The scene an `EpisodeSpec` names (generated from its scenario name and seed)."""
+    return generate_scenario(spec.scenario, spec.seed, occluded=spec.occluded)
+
+
 def run_spec(spec: EpisodeSpec) -> dict:
     """Run one episode; never raises (an exception becomes a failure row)."""
     t0 = time.perf_counter()
     try:
-        from tsad_drake.bench.episodes import run_named_episode
-
         row = run_named_episode(spec)
     except Exception as err:  # recorded, never fatal to the bench
         row = {"success": False, "failure_reason": f"error: {type(err).__name__}: {err}",
@@ -75,8 +95,6 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     or from before rows recorded it, is run again)."""
     if not path.exists():
         return {}
-    from tsad_drake.bench.episodes import spec_scenario, weights_digest
-    from tsad_drake.scenario import scene_digest
 
     by_seed = {s.seed: s for s in specs}
     wanted = specs[0].key()

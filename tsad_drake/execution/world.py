@@ -1,16 +1,24 @@
-"""A symbolic world model on the TRUE scene: applies pick-and-places and counts what falls.
+"""The World an episode acts on, and its first implementation: the geometric world.
 
-Contact is `geometry2d`'s: the open gripper's corridor (`approach_corridor`) touching a true
-footprint knocks that object over; a placement overlapping another footprint knocks it over too.
-A knocked-over object is counted once, stays where it stood and can still be picked. A fallen
-target, or a placement outside the workspace, ends the episode as a failure. Physics execution in
-Drake can replace this class: it only needs `apply`, `retrieval_angle`, `retrieve` and `scenario`.
+A `World` holds the TRUE scene: it is observed (what the robot perceives), executes pick-and-places
+on true objects and judges them (what moved, what fell), and takes the target out at the end. The
+closed loop (`execution.episode`) only talks to this interface, so a physics world (a Drake contact
+simulation that executes the motion-level trajectories and renders its next observation from the
+simulated state) is another implementation of the same methods.
+
+`GeometricWorld` decides contact with `geometry2d`: the open gripper's corridor
+(`approach_corridor`) touching a true footprint knocks that object over; a placement overlapping
+another footprint knocks it over too. A knocked-over object is counted once, stays where it stood
+and can still be picked. A fallen target, or a placement outside the workspace, ends the episode
+as a failure.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses as dc
+from abc import ABC, abstractmethod
+from collections.abc import Callable
 
 import numpy as np
 
@@ -20,11 +28,15 @@ from tsad_drake.geometry2d import (
     side_wall_polygons,
     width_across,
 )
+from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import ObjectConfig, Scenario
 
 #: m, how far in front of the shelf the approach corridor starts (as the planners' models)
 CORRIDOR_OUTSIDE = 0.30
+
+#: the robot's observation of a true scene (a renderer plus perception)
+Observer = Callable[[Scenario], PerceivedScene]
 
 
 @dc.dataclass
@@ -38,28 +50,111 @@ class Outcome:
     reason: str = ""  #: failure reason, "" on success
 
 
-class WorldModel:
-    """The true scene, changed by actions."""
+@dc.dataclass
+class ActionOutcome:
+    """What one executed pick-and-place did in the world."""
 
-    def __init__(self, scenario: Scenario) -> None:
-        self._scenario = copy.deepcopy(scenario)
-        self._walls = side_wall_polygons(scenario.shelf.depth, scenario.shelf.width,
-                                         scenario.shelf.wall_thickness)
+    object: str  #: the true object it grasped
+    moved: bool  #: the object now stands at the placement
+    fallen: list[str] = dc.field(default_factory=list)  #: objects knocked over by this action
+    reason: str = ""  #: why the object did not move ("" when it did)
+
+
+class World(ABC):
+    """The true scene an episode acts on (see the module docstring)."""
+
+    def __init__(self) -> None:
         self.fallen: list[str] = []  #: names of knocked-over objects, in order
-        self.num_actions = 0
-        self.relocations = 0
+        self.num_actions = 0  #: pick-and-places executed, the final retrieval included
+        self.relocations = 0  #: pick-and-places that put an object somewhere else
         self.failure = ""  #: set when the episode has failed
-        self.success = False
-
-    # -- queries -------------------------------------------------------------------------------
-    def scenario(self) -> Scenario:
-        """A copy of the current true scene (for re-observation)."""
-        return copy.deepcopy(self._scenario)
+        self.success = False  #: set when the target has been taken out
 
     @property
     def done(self) -> bool:
         return self.success or bool(self.failure)
 
+    @abstractmethod
+    def observe(self) -> PerceivedScene:
+        """What the robot perceives of the scene now."""
+
+    @abstractmethod
+    def scenario(self) -> Scenario:
+        """A copy of the true scene now (the oracle model and the motion level read it)."""
+
+    @abstractmethod
+    def true_name(self, name: str, x: float, y: float) -> str:
+        """The true object an action on perceived object `name`, centred at (x, y), grasps."""
+
+    @abstractmethod
+    def execute(self, action: Action) -> ActionOutcome:
+        """Execute one pick-and-place of the true object named `action.object`."""
+
+    @abstractmethod
+    def retrievable(self) -> bool:
+        """Whether the target could be taken out now without touching anything."""
+
+    @abstractmethod
+    def retrieve(self) -> bool:
+        """Take the target out if possible (one more action); True on success."""
+
+    def outcome(self, reason: str = "") -> Outcome:
+        """The episode's figures so far; `reason` explains a failure the world did not see."""
+        return Outcome(self.success, self.num_actions, self.relocations, len(self.fallen),
+                       "" if self.success else (self.failure or reason))
+
+
+class GeometricWorld(World):
+    """The true scene, changed by actions under the 2-D corridor rule, observed by `observer`
+    (None: a world that only executes and judges, as tests and plan checks use it)."""
+
+    def __init__(self, scenario: Scenario, observer: Observer | None = None) -> None:
+        super().__init__()
+        self._scenario = copy.deepcopy(scenario)
+        self._observer = observer
+        self._walls = side_wall_polygons(scenario.shelf.depth, scenario.shelf.width,
+                                         scenario.shelf.wall_thickness)
+
+    # -- the World interface -------------------------------------------------------------------
+    def observe(self) -> PerceivedScene:
+        if self._observer is None:
+            raise RuntimeError("this GeometricWorld was built without an observer")
+        return self._observer(self.scenario())
+
+    def scenario(self) -> Scenario:
+        return copy.deepcopy(self._scenario)
+
+    def true_name(self, name: str, x: float, y: float) -> str:
+        """`name` itself when a true object has it (label segmentation), else the true object
+        whose centre is nearest (x, y)."""
+        try:
+            self.object(name)
+            return name
+        except KeyError:
+            return self.nearest(x, y)
+
+    def execute(self, action: Action) -> ActionOutcome:
+        if self.done:
+            return ActionOutcome(action.object, False, reason="the episode is over")
+        obj = self.object(action.object)
+        fallen_before = len(self.fallen)
+        self.num_actions += 1
+        moved, reason = self._pick_and_place(obj, action)
+        return ActionOutcome(obj.name, moved, self.fallen[fallen_before:], reason)
+
+    def retrievable(self) -> bool:
+        return self.retrieval_angle() is not None
+
+    def retrieve(self) -> bool:
+        if self.done:
+            return self.success
+        if self.retrieval_angle() is None:
+            return False
+        self.num_actions += 1
+        self.success = True
+        return True
+
+    # -- the 2-D rule --------------------------------------------------------------------------
     def object(self, name: str) -> ObjectConfig:
         return self._scenario.object(name)
 
@@ -94,7 +189,6 @@ class WorldModel:
                 return float(theta)
         return None
 
-    # -- changes -------------------------------------------------------------------------------
     def _knock(self, names: list[str]) -> None:
         for name in names:
             if name not in self.fallen:
@@ -102,21 +196,17 @@ class WorldModel:
             if name == self._scenario.target and not self.failure:
                 self.failure = "target fell"
 
-    def apply(self, action: Action) -> None:
-        """Execute one pick-and-place of the true object named `action.object`."""
-        if self.done:
-            return
-        obj = self.object(action.object)
-        self.num_actions += 1
+    def _pick_and_place(self, obj: ObjectConfig, action: Action) -> tuple[bool, str]:
+        """Apply one pick-and-place; (whether the object moved, why not)."""
         pick_corridor = self.corridor(obj.x, obj.y, action.theta_pick)
         if self.hits_wall(pick_corridor):
-            return  # the arm stops at the wall: a wasted action, nothing moves
+            return False, "the arm stops at a side wall"  # a wasted action, nothing moves
         self._knock(self.touched(pick_corridor, obj.name))
         if not self.fits(obj, action.theta_pick):
             self._knock([obj.name])  # the fingers close on it badly: it tips over where it stood
-            return
+            return False, "too wide for the gripper at theta_pick"
         if self.failure:
-            return
+            return False, self.failure
         moved = dc.replace(obj, x=float(action.x), y=float(action.y),
                            yaw=float(obj.yaw + action.theta_place - action.theta_pick))
         poly = moved.footprint()
@@ -124,22 +214,9 @@ class WorldModel:
         if (poly[:, 0].min() < 0.0 or poly[:, 0].max() > shelf.depth
                 or np.abs(poly[:, 1]).max() > shelf.width / 2):
             self.failure = "object out of workspace"
-            return
+            return False, self.failure
         self._scenario.objects[self._scenario.objects.index(obj)] = moved
         self.relocations += 1
         place_corridor = self.corridor(moved.x, moved.y, action.theta_place)
         self._knock(self.touched(place_corridor, moved.name) + self.touched(poly, moved.name))
-
-    def retrieve(self) -> bool:
-        """Take the target out if some angle allows it (one more action); True on success."""
-        if self.done:
-            return self.success
-        if self.retrieval_angle() is None:
-            return False
-        self.num_actions += 1
-        self.success = True
-        return True
-
-    def outcome(self, reason: str = "") -> Outcome:
-        return Outcome(self.success, self.num_actions, self.relocations, len(self.fallen),
-                       "" if self.success else (self.failure or reason))
+        return True, ""

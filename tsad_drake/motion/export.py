@@ -30,12 +30,8 @@ from tsad_drake.station_models import (
     UR5E_JOINTS,
     UR5E_URL,
     X_SO,
-    add_ground,
-    add_object,
-    add_robot,
-    add_shelf,
+    add_scene,
     filter_robot_collisions,
-    make_parser,
 )
 from tsad_drake.viewpoints import shelf_prisms
 
@@ -56,11 +52,8 @@ class SceneLayout:
         builder = DiagramBuilder()
         self.plant, self.scene_graph = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
         plant = self.plant
-        self.robot, self.gripper = add_robot(plant, make_parser(plant), RigidTransform())
-        add_ground(plant)
-        add_shelf(plant, scenario.shelf, self.X_WS)
-        self.bodies = {obj.name: add_object(plant, obj, i, obj.name == scenario.target)
-                       for i, obj in enumerate(scenario.objects)}
+        models = add_scene(plant, scenario, self.X_WS)
+        self.robot, self.gripper, self.bodies = models.robot, models.gripper, models.objects
         plant.Finalize()
         filter_robot_collisions(plant, self.scene_graph, self.robot, self.gripper)
         self.visualizer = (MeshcatVisualizer.AddToBuilder(builder, self.scene_graph, meshcat)

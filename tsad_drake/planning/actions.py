@@ -3,17 +3,15 @@
 The search picks {n, x, y}; theta_pick is an angle where object n is pickable in s (nearest the
 preferred angle, the retrieval angle or 0, among those from which cell (x, y) admits a
 placement), theta_place one where the moved object is pickable in the next state s' (least
-rotation). Models with a batched `place_options` (the footprint models) answer all cells at
-once; any other FeasibilityModel is asked state by state through the point-cloud simulation.
+rotation), as the model's `place_options` answers it for every cell.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from tsad_drake.planning.feasibility import approach_order
-from tsad_drake.planning.pointcloud_sim import placement_valid, simulate_pick_place
-from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
+from tsad_drake.planning.interface import FeasibilityModel, approach_order
+from tsad_drake.planning.types import Action, PlanningState, Workspace
 
 #: m, a placement this close to the object's current centre is no move at all
 SAME_PLACE = 0.01
@@ -34,26 +32,6 @@ def choose_theta_pick(feasibility: FeasibilityModel, state: PlanningState, index
     return angles[0] if angles else None
 
 
-def place_options(feasibility: FeasibilityModel, state: PlanningState, index: int,
-                  theta_pick: float, workspace: Workspace) -> np.ndarray:
-    """(C,) theta_place per grid cell for object `index` picked at theta_pick (nan: cell invalid)."""
-    batched = getattr(feasibility, "place_options", None)
-    if batched is not None:
-        return batched(state, index, theta_pick)
-    name = state.objects[index].name
-    thetas = workspace.approach_angles
-    result = np.full(len(workspace.cell_centres), np.nan)
-    for c, (x, y) in enumerate(workspace.cell_centres):
-        for k in approach_order(thetas, theta_pick):
-            rotation = thetas[k] - theta_pick
-            if not placement_valid(state, index, x, y, rotation, workspace):
-                continue
-            nxt = simulate_pick_place(state, Action(name, theta_pick, x, y, float(thetas[k])))
-            if feasibility.pickable(nxt, index)[k]:
-                result[c] = thetas[k]
-                break
-    return result
-
 
 def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: int,
                    workspace: Workspace, prefer: float = 0.0) -> list[Action]:
@@ -66,13 +44,18 @@ def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: i
 def cell_moves(feasibility: FeasibilityModel, state: PlanningState, index: int,
                workspace: Workspace, angles: list[float]) -> tuple[np.ndarray, np.ndarray]:
     """(C,) theta_pick and (C,) theta_place per grid cell for moving object `index` (nan where
-    no move): `pick_place_angles` for every cell at once, from the model's batched
-    `place_options`; a cell within `SAME_PLACE` of the object's centre is no move."""
+    move): per cell, the first of the pick `angles` (see `pick_angles`) from which the cell
+    admits a placement, from the model's `place_options`; a cell within `SAME_PLACE` of the
+    object's centre is no move.
+
+    The object turns with the gripper by theta_place - theta_pick, so the pick angle decides
+    which orientations a cell can take it in: a long box that fits a cell only turned by 20
+    degrees needs a pick angle 20 degrees from a valid place angle."""
     cells = workspace.cell_centres
     theta_pick = np.full(len(cells), np.nan)
     theta_place = np.full(len(cells), np.nan)
     for angle in angles:
-        options = place_options(feasibility, state, index, angle, workspace)
+        options = feasibility.place_options(state, index, angle)
         new = np.isnan(theta_place) & np.isfinite(options)
         theta_pick[new], theta_place[new] = angle, options[new]
     obj = state.objects[index]
@@ -81,36 +64,6 @@ def cell_moves(feasibility: FeasibilityModel, state: PlanningState, index: int,
     return theta_pick, theta_place
 
 
-def pick_place_angles(feasibility: FeasibilityModel, state: PlanningState, index: int,
-                      cell: int, workspace: Workspace, angles: list[float]
-                      ) -> tuple[float, float] | None:
-    """(theta_pick, theta_place) moving object `index` to grid cell `cell`: the first of its pick
-    `angles` (see `pick_angles`) from which the cell admits a placement, or None.
-
-    The object turns with the gripper by theta_place - theta_pick, so the pick angle decides
-    which orientations a cell can take it in: a long box that fits a cell only turned by 20
-    degrees needs a pick angle 20 degrees from a valid place angle (scenario 2 seed 3: obj0's
-    one useful cell works picked at 0 or -10 degrees, not at the retrieval angle of 10).
-    """
-    for theta_pick in angles:
-        theta_place = place_option(feasibility, state, index, theta_pick, cell, workspace)
-        if theta_place is not None:
-            return theta_pick, theta_place
-    return None
-
-
-def place_option(feasibility: FeasibilityModel, state: PlanningState, index: int,
-                 theta_pick: float, cell: int, workspace: Workspace) -> float | None:
-    """theta_place for moving object `index` (picked at theta_pick) to grid cell `cell`, or None.
-
-    A model with `first_place_option` (the network) answers this one cell; the others answer all
-    cells at once (memoised per state) and this reads one of them."""
-    first = getattr(feasibility, "first_place_option", None)
-    if first is not None:
-        found = first(state, index, theta_pick, [cell])
-        return None if found is None else found[1]
-    theta = place_options(feasibility, state, index, theta_pick, workspace)[cell]
-    return None if np.isnan(theta) else float(theta)
 
 
 class UntriedActions:
@@ -133,7 +86,6 @@ class UntriedActions:
         self._next: Action | None = None
         self._pick_angles: dict[int, list[float]] = {}
         self._moves: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        self._batched = getattr(feasibility, "place_options", None) is not None
 
     def pick_angles(self, index: int) -> list[float]:
         """`pick_angles` of object `index` (memoised)."""
@@ -143,7 +95,7 @@ class UntriedActions:
         return self._pick_angles[index]
 
     def cell_moves(self, index: int) -> tuple[np.ndarray, np.ndarray]:
-        """`cell_moves` of object `index` (memoised; models with a batched `place_options`)."""
+        """`cell_moves` of object `index` (memoised)."""
         if index not in self._moves:
             self._moves[index] = cell_moves(self.feasibility, self.state, index, self.workspace,
                                             self.pick_angles(index))
@@ -153,19 +105,11 @@ class UntriedActions:
         """The action moving object `index` to cell `cell`, or None when it is infeasible."""
         obj = self.state.objects[index]
         x, y = self.workspace.cell_centres[cell]
-        if self._batched:
-            theta_pick, theta_place = self.cell_moves(index)
-            if np.isnan(theta_place[cell]):
-                return None
-            return Action(obj.name, float(theta_pick[cell]), float(x), float(y),
-                          float(theta_place[cell]))
-        if np.hypot(x - obj.x, y - obj.y) < SAME_PLACE:
+        theta_pick, theta_place = self.cell_moves(index)
+        if np.isnan(theta_place[cell]):
             return None
-        angles = pick_place_angles(self.feasibility, self.state, index, cell, self.workspace,
-                                   self.pick_angles(index))
-        if angles is None:
-            return None
-        return Action(obj.name, angles[0], float(x), float(y), angles[1])
+        return Action(obj.name, float(theta_pick[cell]), float(x), float(y),
+                      float(theta_place[cell]))
 
     def peek(self) -> Action | None:
         """The next feasible action (drawn, not yet taken), or None when none is left."""
@@ -207,16 +151,15 @@ def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace
     """A uniformly random feasible action (random object, then random valid cell), or None.
 
     `among` restricts the objects considered (default: every object but the target). A model
-    with `first_place_option` (the network) checks cells one at a time in a random order instead
+    that `answers_one_cell` (the network) checks cells one at a time in a random order instead
     of all of them: the first valid cell of a random permutation is uniform over the valid ones,
     at a fraction of the queries.
     """
     movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
     if among is not None:
         movable = [i for i in movable if i in among]
-    first_option = getattr(feasibility, "first_place_option", None)
     for i in rng.permutation(movable):
-        if first_option is None:
+        if not feasibility.answers_one_cell:
             actions = object_actions(feasibility, state, int(i), workspace, prefer)
             if actions:
                 return actions[int(rng.integers(len(actions)))]
@@ -226,7 +169,7 @@ def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace
         order = [int(c) for c in rng.permutation(len(cells))
                  if np.hypot(cells[c, 0] - obj.x, cells[c, 1] - obj.y) >= SAME_PLACE]
         for theta_pick in pick_angles(feasibility, state, int(i), workspace, prefer):
-            found = first_option(state, int(i), theta_pick, order)
+            found = feasibility.first_place_option(state, int(i), theta_pick, order)
             if found is not None:
                 c, theta_place = found
                 return Action(obj.name, theta_pick, float(cells[c, 0]), float(cells[c, 1]),

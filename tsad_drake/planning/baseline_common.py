@@ -11,7 +11,7 @@ import time
 import numpy as np
 
 from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap
-from tsad_drake.planning.feasibility import approach_order
+from tsad_drake.planning.interface import FeasibilityModel, approach_order
 from tsad_drake.planning.pointcloud_sim import (
     footprint_hull,
     move_object,
@@ -19,13 +19,7 @@ from tsad_drake.planning.pointcloud_sim import (
     simulate_pick_place,
 )
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
-from tsad_drake.planning.types import (
-    Action,
-    FeasibilityModel,
-    PlanningState,
-    PlanObject,
-    Workspace,
-)
+from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspace
 
 #: m, where a removed object is parked: far in front of the shelf, out of every corridor
 PARK_X = -10.0
@@ -64,10 +58,7 @@ def preferred_angle(workspace: Workspace, mask: np.ndarray, prefer: float = 0.0)
 def reachable_angles(feasibility: FeasibilityModel, state: PlanningState, index: int,
                      workspace: Workspace) -> np.ndarray:
     """(A,) angles at which object `index` could be picked once its blockers are gone."""
-    reachable = getattr(feasibility, "reachable", None)
-    if reachable is None:
-        return np.ones(len(workspace.approach_angles), dtype=bool)
-    return np.asarray(reachable(state, index), dtype=bool)
+    return np.asarray(feasibility.reachable(state, index), dtype=bool)
 
 
 def park(state: PlanningState, index: int) -> PlanningState:

@@ -28,6 +28,7 @@ from tsad_drake.geometry2d import (
     side_wall_polygons,
     width_across,
 )
+from tsad_drake.planning.interface import FeasibilityModel, approach_order
 from tsad_drake.planning.pointcloud_sim import (
     DEFAULT_PLACEMENT_GAP,
     PERCEIVED_EDGE_MARGIN,
@@ -36,14 +37,13 @@ from tsad_drake.planning.pointcloud_sim import (
     inside_workspace,
     perceived_hull,
 )
-from tsad_drake.planning.types import FeasibilityModel, PlanningState, PlanObject, Workspace
+from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import ObjectConfig, Scenario
 
 #: m, how far in front of the shelf's front edge the approach corridor starts
 CORRIDOR_OUTSIDE = 0.30
 #: states kept in a model's cache before it is cleared
 CACHE_LIMIT = 50_000
-FEASIBILITY_NAMES = ("oracle", "geometric", "net")
 
 
 @dc.dataclass
@@ -107,21 +107,7 @@ def corridor_hits(centres: np.ndarray, thetas: np.ndarray, corridors: np.ndarray
     return hits
 
 
-def angle_index(thetas: np.ndarray, theta: float) -> int:
-    """Index of the approach angle in `thetas` nearest `theta`."""
-    return int(np.argmin(np.abs(thetas - theta)))
 
-
-def blockers_at(model: FeasibilityModel, state: PlanningState, index: int, k: int) -> frozenset[int]:
-    """R_{theta_k,s} for object `index`: one angle's answer. A model that answers a single angle
-    more cheaply than all of them (the network: one query instead of seven) does so."""
-    one = getattr(model, "blockers_at", None)
-    return one(state, index, k) if one is not None else model.blockers(state, index)[k]
-
-
-def approach_order(thetas: np.ndarray, prefer: float) -> np.ndarray:
-    """Indices of `thetas` sorted by distance to `prefer`, ties to the smaller |theta|."""
-    return np.lexsort((np.abs(thetas), np.round(np.abs(thetas - prefer), 9)))
 
 
 class StateGeometry:
@@ -171,7 +157,7 @@ class CellCorridors:
     wall_clear: np.ndarray  #: (C, A) the corridor misses both side walls
 
 
-class FootprintFeasibility:
+class FootprintFeasibility(FeasibilityModel):
     """Shared machinery: subclasses say how a PlanObject becomes an ObjectGeometry."""
 
     name = "footprint"
@@ -384,16 +370,3 @@ class OracleFeasibility(FootprintFeasibility):
             self._hidden[seen] = [self._geometry_at(o, o.x, o.y, o.yaw)
                                   for o in self.scenario.objects if o.name not in seen]
         return self._hidden[seen]
-
-
-def make_feasibility(name: str, scenario: Scenario, workspace: Workspace) -> FootprintFeasibility:
-    """The feasibility model called `name` ("oracle" or "geometric")."""
-    if name == "oracle":
-        return OracleFeasibility(scenario, workspace)
-    if name == "geometric":
-        return GeometricFeasibility(workspace)
-    if name == "net":  # the prehensile network (shipped weights; WeightsError, a UsageError, if bad)
-        from tsad_drake.planning.net_feasibility import NetFeasibility
-
-        return NetFeasibility(workspace)
-    raise ValueError(f"unknown feasibility model {name!r}: use one of {', '.join(FEASIBILITY_NAMES)}")

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from tsad_drake.planning.actions import choose_theta_pick, place_options
+from tsad_drake.planning.actions import choose_theta_pick
 from tsad_drake.planning.baseline_common import (
     Budget,
     CellScorer,
@@ -24,9 +24,9 @@ from tsad_drake.planning.baseline_common import (
     reachable_angles,
     target_clear,
 )
-from tsad_drake.planning.feasibility import angle_index
+from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
-from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
+from tsad_drake.planning.types import Action, Plan, PlanningState, Workspace
 
 
 @dc.dataclass
@@ -208,7 +208,7 @@ def _place_order(state: PlanningState, order: tuple[str, ...], theta_star: float
         theta_pick = choose_theta_pick(feasibility, state, i, workspace)
         if theta_pick is None:
             return state, actions, f"{name} cannot be picked after the earlier placements"
-        options = place_options(feasibility, state, i, theta_pick, workspace)
+        options = feasibility.place_options(state, i, theta_pick)
         counts = empty.after_moves(state, i, theta_pick, options)
         best: tuple[int, int] | None = None
         for c, count in sorted(counts.items()):

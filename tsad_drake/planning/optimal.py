@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from tsad_drake.planning.actions import choose_theta_pick, place_options
+from tsad_drake.planning.actions import choose_theta_pick
 from tsad_drake.planning.baseline_common import (
     Budget,
     CellScorer,
@@ -23,8 +23,9 @@ from tsad_drake.planning.baseline_common import (
     reachable_angles,
     target_clear,
 )
+from tsad_drake.planning.interface import FeasibilityModel
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
-from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
+from tsad_drake.planning.types import Action, Plan, PlanningState, Workspace
 
 
 @dc.dataclass
@@ -81,7 +82,7 @@ class _Search:
             theta_pick = choose_theta_pick(self.feasibility, state, i, ws)
             if theta_pick is None:
                 continue
-            options = place_options(self.feasibility, state, i, theta_pick, ws)
+            options = self.feasibility.place_options(state, i, theta_pick)
             counts = self.scorer.after_moves(state, i, theta_pick, options)
             ranked = []
             for c, count in counts.items():

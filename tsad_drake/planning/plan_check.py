@@ -18,9 +18,9 @@ from __future__ import annotations
 import dataclasses as dc
 
 from tsad_drake.planning.actions import rederive
-from tsad_drake.planning.feasibility import angle_index, blockers_at
+from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
-from tsad_drake.planning.types import Action, FeasibilityModel, PlanningState, Workspace
+from tsad_drake.planning.types import Action, PlanningState, Workspace
 
 
 def relocation_key(name: str, x: float, y: float) -> tuple[str, float, float]:
@@ -36,7 +36,7 @@ def action_key(action: Action) -> tuple[str, float, float]:
 def rearrangement_set(state: PlanningState, feasibility: FeasibilityModel, k: int) -> frozenset[str]:
     """Names in R_{theta_k,s}, the target's blockers at angle k (names compare across states)."""
     return frozenset(state.objects[i].name
-                     for i in blockers_at(feasibility, state, state.target_index, k))
+                     for i in feasibility.blockers_at(state, state.target_index, k))
 
 
 def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,

@@ -1,7 +1,8 @@
-"""Planner registry: name -> plan function with the shared signature, and each one's config.
+"""Planner registry: each planner's plan function, default config and what it supports.
 
-Every planner is `plan(state, feasibility, workspace, config, rng) -> Plan`. The baselines
-("gp3", "rots", "rots-star", "rots-star-search", "optimal") register here next to "tsad".
+Every planner is `plan(state, feasibility, workspace, config, rng) -> Plan`. An entry says which
+of the closed loop's re-planning features the planner takes part in, so the loop never guesses
+from its config's fields; a planner of your own registers a `PlannerSpec` with `register`.
 """
 
 from __future__ import annotations
@@ -13,39 +14,71 @@ from typing import Any
 from tsad_drake.planning.gp3 import GP3Config, plan_gp3
 from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.rots import ROTSConfig, plan_rots, plan_rots_star
-from tsad_drake.planning.tsad import TSADConfig, plan_tsad
+from tsad_drake.planning.tsad import plan_tsad
+from tsad_drake.planning.tsad_config import TSADConfig
 
-PLANNERS: dict[str, Callable] = {"tsad": plan_tsad}
-#: planner name -> factory of its default config
-CONFIGS: dict[str, Callable[[], Any]] = {"tsad": TSADConfig}
-# the baselines (gp3.py, rots.py, optimal.py)
-PLANNERS.update({"gp3": plan_gp3, "rots": plan_rots, "rots-star": plan_rots_star,
-                 "rots-star-search": plan_rots_star, "optimal": plan_optimal})
-CONFIGS.update({"gp3": GP3Config, "rots": ROTSConfig,
-                "rots-star": lambda: ROTSConfig(check_feasibility=True),
-                "rots-star-search": lambda: ROTSConfig(check_feasibility=True,
-                                                       check_during_search=True),
-                "optimal": OptimalConfig})
-#: TSAD ablations of the paper's Table II: name -> TSADConfig overrides
+#: plan(state, feasibility, workspace, config, rng) -> Plan
+PlanFunction = Callable[..., Any]
+
+
+@dc.dataclass(frozen=True)
+class PlannerSpec:
+    """A planner and what it supports (each flag names the config fields it relies on)."""
+
+    name: str
+    plan: PlanFunction
+    default_config: Callable[[], Any]
+    #: plans in sub-searches: in closed loop it is asked for the first one only
+    #: (`config.max_sub_searches = 1`) unless `config.lookahead` is set
+    sub_searches: bool = False
+    #: honours excluded relocations (`config.excluded_actions`): a relocation motion planning
+    #: refused, or one that brought the scene back to an earlier configuration, is excluded and
+    #: the planner asked again
+    exclusions: bool = False
+    #: the closed loop may keep the rest of its last plan while a new observation still admits
+    #: it (`config.reuse_plans`)
+    reuse: bool = False
+    #: takes the paper's reward ablations (`ABLATIONS`)
+    ablations: bool = False
+
+
+#: TSAD ablations of the paper's Table II: name -> config overrides
 ABLATIONS: dict[str, dict[str, Any]] = {"none": {}, "no-ro": {"use_ro": False},
                                         "no-re": {"use_re": False}}
 
+PLANNERS: dict[str, PlannerSpec] = {}
 
-def get_planner(name: str) -> Callable:
-    """The plan function called `name`; ValueError naming the known ones otherwise."""
+
+def register(spec: PlannerSpec) -> None:
+    """Make `spec` available by its name (`tsad plan --planner NAME` for built-in names)."""
+    PLANNERS[spec.name] = spec
+
+
+register(PlannerSpec("tsad", plan_tsad, TSADConfig, sub_searches=True, exclusions=True,
+                     reuse=True, ablations=True))
+register(PlannerSpec("gp3", plan_gp3, GP3Config))
+register(PlannerSpec("rots", plan_rots, ROTSConfig))
+register(PlannerSpec("rots-star", plan_rots_star, lambda: ROTSConfig(check_feasibility=True)))
+register(PlannerSpec("rots-star-search", plan_rots_star,
+                     lambda: ROTSConfig(check_feasibility=True, check_during_search=True)))
+register(PlannerSpec("optimal", plan_optimal, OptimalConfig))
+
+
+def get_planner(name: str) -> PlannerSpec:
+    """The planner called `name`; ValueError naming the known ones otherwise."""
     if name not in PLANNERS:
         raise ValueError(f"unknown planner {name!r}: use one of {', '.join(sorted(PLANNERS))}")
     return PLANNERS[name]
 
 
 def make_config(name: str, ablation: str = "none", **overrides: Any) -> Any:
-    """Default config of planner `name`, with an ablation (TSAD only) and field overrides."""
-    get_planner(name)
-    config = CONFIGS[name]() if name in CONFIGS else None
+    """Default config of planner `name`, with an ablation and field overrides."""
+    spec = get_planner(name)
+    config = spec.default_config()
     if ablation != "none":
         if ablation not in ABLATIONS:
             raise ValueError(f"unknown ablation {ablation!r}: use one of {', '.join(ABLATIONS)}")
-        if not isinstance(config, TSADConfig):
+        if not spec.ablations:
             raise ValueError(f"ablation {ablation!r} applies to tsad only")
         overrides = {**ABLATIONS[ablation], **overrides}
     return dc.replace(config, **overrides) if overrides else config

@@ -33,16 +33,17 @@ import math
 import numpy as np
 
 from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap, side_wall_polygons
-from tsad_drake.planning.actions import choose_theta_pick, place_options, rederive
+from tsad_drake.planning.actions import choose_theta_pick, rederive
 from tsad_drake.planning.baseline_common import Budget, preferred_angle, target_clear
-from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, angle_index
+from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE
+from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.plan_check import action_key
 from tsad_drake.planning.pointcloud_sim import (
     DEFAULT_PLACEMENT_GAP,
     footprint_hull,
     simulate_pick_place,
 )
-from tsad_drake.planning.types import Action, FeasibilityModel, Plan, PlanningState, Workspace
+from tsad_drake.planning.types import Action, Plan, PlanningState, Workspace
 
 
 @dc.dataclass
@@ -244,7 +245,7 @@ class _ROTSSearch:
         if theta_pick is None:
             return []
         if self.star:
-            options = place_options(self.feasibility, state, index, theta_pick, ws)
+            options = self.feasibility.place_options(state, index, theta_pick)
             cylinder_ok = self.model.place_options(state, index, theta_pick)
             options = np.where(np.isnan(cylinder_ok), np.nan, options)
         else:

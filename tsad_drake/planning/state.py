@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tsad_drake.geometry2d import footprint_polygon
+from tsad_drake.geometry2d import footprint_polygon, points_in_polygon
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import Scenario
@@ -93,3 +93,20 @@ def empty_cell_count(state: PlanningState, workspace: Workspace) -> int:
         occupied |= occupied_cells(completed_footprint_points(obj), workspace.cell_centres,
                                    workspace.min_empty_distance)
     return int(len(occupied) - occupied.sum())
+
+def true_state(scenario: Scenario, spacing: float = 0.01) -> PlanningState:
+    """The planning state of `scenario` as the true shapes give it: each object's footprint filled
+    with points `spacing` apart (plus its corners) at its top height, named as in the scenario."""
+    objects = []
+    for o in scenario.objects:
+        poly = o.footprint()
+        lo, hi = poly.min(axis=0), poly.max(axis=0)
+        gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + 1e-9, spacing),
+                             np.arange(lo[1], hi[1] + 1e-9, spacing), indexing="ij")
+        grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
+        xy = np.concatenate([poly, grid[points_in_polygon(grid, poly)]])
+        points = np.column_stack([xy, np.full(len(xy), o.size[-1])])
+        points.setflags(write=False)
+        pose = (float(o.x), float(o.y), float(o.yaw))
+        objects.append(PlanObject(o.name, points, *pose, origin=pose))
+    return PlanningState(tuple(objects), scenario.target)

@@ -1,4 +1,4 @@
-"""The planning layer's shared types: workspace, state, action, plan, and the FeasibilityModel interface.
+"""The planning layer's shared types: workspace, state, action, plan (the model interface: `interface`).
 
 The planners see only these, a FeasibilityModel and the point-cloud simulation; nothing here
 imports Drake or reads true object shapes (except the `oracle` model, which is given the scenario).
@@ -7,7 +7,6 @@ imports Drake or reads true object shapes (except the `oracle` model, which is g
 from __future__ import annotations
 
 import dataclasses as dc
-from typing import Protocol
 
 import numpy as np
 
@@ -99,19 +98,3 @@ class Plan:
     failure_reason: str = ""
     planning_time_s: float = 0.0
     stats: dict = dc.field(default_factory=dict)  #: iterations, nodes, |R| per sub-search, ...
-
-
-class FeasibilityModel(Protocol):
-    """Answers prehensile questions about a state; batched over approach angles.
-
-    `blockers(state, i)` gives, per angle in workspace.approach_angles, the indices of objects
-    whose presence makes approaching object i at that angle collide (the smallest rearrangement
-    set R_{theta,s} when i is the target). `pickable(state, i)` gives, per angle, whether object i
-    can be picked there: a clear approach and its width across the gripper fits the stroke.
-    """
-
-    name: str
-
-    def blockers(self, state: PlanningState, index: int) -> list[frozenset[int]]: ...
-
-    def pickable(self, state: PlanningState, index: int) -> np.ndarray: ...

@@ -1,0 +1,106 @@
+"""Perceived footprints against true ones: `python -m tsad_drake.bench.studies.hull_errors`.
+
+The geometric model (and the network's placement test) plan with `pointcloud_sim.perceived_hull`:
+the hull of an object's seen points completed by reflection through its estimated centre. This
+measures, on generated scenes observed through the ray caster, how far each true footprint reaches
+past its perceived hull (the error a placement gap or an edge margin must absorb) and how far the
+hull reaches past the truth (space the planner wrongly thinks is taken), per object kind and per
+side of the object as the camera sees it (front: towards the camera, -x).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses as dc
+
+import numpy as np
+
+from tsad_drake.perception.observe import observe_raycast
+from tsad_drake.planning.pointcloud_sim import perceived_hull
+from tsad_drake.planning.state import state_from_perception
+from tsad_drake.scenario import Scenario
+from tsad_drake.scenes import generate_scenario
+
+#: sides reported, as directions in the shelf frame (x into the shelf, away from the camera)
+SIDES = {"front": np.pi, "back": 0.0, "left": np.pi / 2, "right": -np.pi / 2}
+#: directions over which the largest shortfall / excess of an object is taken
+DIRECTIONS = np.arange(32) * 2 * np.pi / 32
+
+
+@dc.dataclass
+class HullError:
+    """One perceived object against the true object of the same name (metres)."""
+
+    name: str
+    kind: str
+    shortfall: float  #: largest distance the true footprint reaches past the perceived hull
+    excess: float  #: largest distance the perceived hull reaches past the true footprint
+    sides: dict[str, float]  #: per side: perceived support minus true support (+: hull too big)
+
+
+def support(polygon: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """(len(angles),) support distance of `polygon` along each direction."""
+    return (polygon @ np.stack([np.cos(angles), np.sin(angles)])).max(axis=0)
+
+
+def hull_errors(scenario: Scenario) -> list[HullError]:
+    """Errors of every perceived object of `scenario` (ray caster, label segmentation)."""
+    state = state_from_perception(observe_raycast(scenario, segmentation="label").scene)
+    truth = {o.name: o for o in scenario.objects}
+    side_angles = np.array(list(SIDES.values()))
+    rows = []
+    for obj in state.objects:
+        true = truth.get(obj.name)
+        if true is None:
+            continue
+        hull, footprint = perceived_hull(obj), np.asarray(true.footprint())
+        diff = support(hull, DIRECTIONS) - support(footprint, DIRECTIONS)
+        sides = support(hull, side_angles) - support(footprint, side_angles)
+        rows.append(HullError(obj.name, true.kind, float(max(-diff.min(), 0.0)),
+                              float(max(diff.max(), 0.0)),
+                              {s: float(v) for s, v in zip(SIDES, sides, strict=True)}))
+    return rows
+
+
+def summary(rows: list[HullError]) -> dict[str, dict[str, float]]:
+    """Per kind (and "all"): objects, shortfall / excess median, p90 and max in mm, and the
+    median signed error per side in mm."""
+    out = {}
+    for kind in sorted({r.kind for r in rows}) + ["all"]:
+        sel = [r for r in rows if kind in ("all", r.kind)]
+        short = 1000 * np.array([r.shortfall for r in sel])
+        excess = 1000 * np.array([r.excess for r in sel])
+        entry = {"objects": len(sel),
+                 "shortfall_median_mm": float(np.median(short)),
+                 "shortfall_p90_mm": float(np.percentile(short, 90)),
+                 "shortfall_max_mm": float(short.max()),
+                 "excess_median_mm": float(np.median(excess)),
+                 "excess_p90_mm": float(np.percentile(excess, 90))}
+        for side in SIDES:
+            entry[f"{side}_median_mm"] = 1000 * float(np.median([r.sides[side] for r in sel]))
+        out[kind] = entry
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenarios", default="1,2,3", help="comma-separated built-in scenarios")
+    parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 of each scenario")
+    args = parser.parse_args(argv)
+    rows = []
+    for name in args.scenarios.split(","):
+        for seed in range(args.seeds):
+            rows += hull_errors(generate_scenario(name, seed))
+    print(f"perceived hull vs true footprint, scenarios {args.scenarios} x seeds "
+          f"0-{args.seeds - 1} (ray caster; mm):")
+    print(f"{'kind':<14} {'objects':>7} {'short med':>9} {'p90':>5} {'max':>5} {'excess med':>10} "
+          f"{'p90':>5}   signed per side (front back left right)")
+    for kind, e in summary(rows).items():
+        sides = " ".join(f"{e[f'{s}_median_mm']:+5.1f}" for s in SIDES)
+        print(f"{kind:<14} {e['objects']:>7d} {e['shortfall_median_mm']:>9.1f} "
+              f"{e['shortfall_p90_mm']:>5.1f} {e['shortfall_max_mm']:>5.1f} "
+              f"{e['excess_median_mm']:>10.1f} {e['excess_p90_mm']:>5.1f}   {sides}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,96 @@
+"""`tsad` command line: render, scene, plan, bench.
+
+Bad input ends with one line on stderr and exit status 2; a planning failure is a result
+(exit status 1, the JSON says why).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+
+from tsad_drake.cli.common import (
+    Parser,
+    add_scenario_args,
+    prepare_out_dir,
+    prepare_out_file,
+    resolve_scenario,
+)
+from tsad_drake.errors import EXIT_BAD_INPUT, UsageError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="tsad", description=(
+        "TSAD on Drake: target retrieval from a shelf with lateral access. A UR5e with a wrist "
+        "depth camera observes the shelf, perception segments the objects, and TSAD plans which "
+        "blockers to move, where, and from which angle."))
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+
+    p = sub.add_parser("scene", help="generate a scenario and write it as YAML",
+                       description="Generate a scene of a built-in scenario and save it as YAML.")
+    add_scenario_args(p)
+    p.add_argument("--out", required=True, help="scenario YAML file to write")
+
+    p = sub.add_parser("render", help="render depth from every approach angle and segment it",
+                       description=(
+                           "Build the Drake station for the scene, render 128x128 depth from the "
+                           "wrist camera at each approach angle, fuse the views into a point cloud "
+                           "in the shelf frame and segment it. Writes depth.npy (V,H,W float32 "
+                           "metres, inf where nothing), depth.png, labels.npy, cloud.ply, "
+                           "segments.npy (P,4: x, y, z, segment index), segments.json and "
+                           "scene.yaml into --out."))
+    add_scenario_args(p)
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
+                   help="label: the renderer's label image (stands in for instance segmentation); "
+                        "cluster: DBSCAN on the fused point cloud alone (default label)")
+    from tsad_drake.cli.net import add_net_parsers
+    from tsad_drake.cli.plan import add_plan_parsers
+
+    add_plan_parsers(sub, add_scenario_args)
+    add_net_parsers(sub)
+    return parser
+
+
+def cmd_scene(args: argparse.Namespace) -> int:
+    from tsad_drake.scenario import save_scenario
+
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    out = prepare_out_file(args.out)
+    save_scenario(scenario, out)
+    print(f"wrote {out}: scenario {scenario.name} seed {scenario.seed}, "
+          f"{len(scenario.objects)} objects, target {scenario.target}")
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from tsad_drake.render_output import render_and_write
+
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    out = prepare_out_dir(args.out)
+    render_and_write(scenario, out, args.segmentation)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    import pydrake.common  # noqa: F401  (hooks the "drake" logger's level to Drake's own)
+
+    logging.getLogger("drake").setLevel(logging.WARNING)  # Drake's INFO lines are not for users
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    from tsad_drake.cli.net import NET_COMMANDS
+    from tsad_drake.cli.plan import PLAN_COMMANDS
+
+    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS, **NET_COMMANDS}
+    try:
+        return commands[args.command](args)
+    except UsageError as err:
+        print(f"tsad: error: {err}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("tsad: interrupted", file=sys.stderr)
+        return 130
+

@@ -1,0 +1,159 @@
+"""`tsad dataset`, `tsad train`, `tsad net-calibrate` and `tsad net-eval`: the prehensile
+network's half of the CLI.
+
+Wire-up: `add_net_parsers(sub)` adds the four subparsers; `NET_COMMANDS` maps each command name to
+its function (args -> exit status). Bad input raises `tsad_drake.errors.UsageError` (exit 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from tsad_drake.cli.common import prepare_out_dir, prepare_out_file
+from tsad_drake.errors import UsageError
+
+OBSERVERS = ("raycast", "drake")
+
+
+def _positive(name: str, value: int) -> None:
+    if value < 1:
+        raise UsageError(f"{name} must be at least 1")
+
+
+def add_net_parsers(sub) -> None:
+    p = sub.add_parser("dataset", help="generate prehensile-network training data (resumable)",
+                       description=(
+                           "Generate scenes (seeds K..K+N-1; scenario 1, 2, 3, real by seed % 4), "
+                           "observe them, add states after random feasible relocations (point-cloud "
+                           "simulation) and the re-observed true scene, and label every (object, "
+                           "angle) with the oracle: fits/reach, pickable, blockers. Queries are "
+                           "class-balanced per state. Writes shards of scenes to DIR; an "
+                           "interrupted run resumes where it stopped. Split by scene: (seed // 4) % 10 "
+                           "== 8 validation, == 9 test (every scenario type in every split)."))
+    p.add_argument("--scenes", type=int, required=True, help="number of scenes")
+    p.add_argument("--seed-start", type=int, default=0, help="first scene seed (default 0)")
+    p.add_argument("--out", required=True, help="dataset directory")
+    p.add_argument("--observer", choices=OBSERVERS, default="raycast",
+                   help="raycast: the NumPy ray caster (fast, same camera and pipeline; default); "
+                        "drake: render depth with the Drake station (VTK)")
+    p.add_argument("--shard-size", type=int, default=20, help="scenes per shard file (default 20)")
+
+    p = sub.add_parser("train", help="train the prehensile network on CPU; keep the best checkpoint",
+                       description=(
+                           "Train the PointNet++ prehensile network on a `tsad dataset` directory "
+                           "(seeded, CPU), validate after each epoch and keep the checkpoint with "
+                           "the best validation score (mean of pickable accuracy and exact "
+                           "blocker-set rate) at --out, then calibrate its decision thresholds on "
+                           "fresh scenes. Stops after --epochs or --max-minutes."))
+    p.add_argument("--data", required=True, help="dataset directory from `tsad dataset`")
+    p.add_argument("--out", required=True, help="weights file to write (.pt)")
+    p.add_argument("--epochs", type=int, default=30, help="epochs (default 30)")
+    p.add_argument("--batch", type=int, default=32, help="batch size (default 32)")
+    p.add_argument("--lr", type=float, default=2e-3, help="peak learning rate, cosine decay (default 2e-3)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--max-minutes", type=float, default=30.0,
+                   help="wall-clock limit in minutes (default 30)")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+
+    p = sub.add_parser("net-calibrate", help="re-tune a weights file's decision thresholds",
+                       description=(
+                           "Choose the network's decision thresholds on fresh scenes (seeds from "
+                           "200000, never used for training or net-eval): reach for the best reach "
+                           "accuracy, collision for the best pickable accuracy, then the set "
+                           "threshold for the most exact "
+                           "blocker sets R_{theta,s}; written into the weights file's meta. "
+                           "`tsad train` ends with the same step."))
+    p.add_argument("--weights", required=True, help="weights file to update in place (.pt)")
+    p.add_argument("--scenes", type=int, default=16, help="calibration scenes (default 16)")
+
+    p = sub.add_parser("net-eval", help="score the network against the oracle on fresh scenes",
+                       description=(
+                           "Generate fresh scenes (seeds never used for training), observe them, "
+                           "and compare the `net` feasibility model with the oracle on every "
+                           "(object, angle): accuracy, precision and recall per scenario type, as "
+                           "a table and JSON."))
+    p.add_argument("--weights", default=None, help="weights file (default: the shipped weights)")
+    p.add_argument("--scenes", type=int, default=40, help="number of scenes (default 40)")
+    p.add_argument("--seed-start", type=int, default=100_000,
+                   help="first scene seed (default 100000; must not overlap the training seeds)")
+    p.add_argument("--observer", choices=OBSERVERS, default="raycast",
+                   help="raycast (default) or drake rendering")
+    p.add_argument("--out", default=None, help="also write the JSON to this file")
+
+
+def cmd_dataset(args: argparse.Namespace) -> int:
+    from tsad_drake.prehensile.dataset import generate_dataset
+
+    _positive("--scenes", args.scenes)
+    _positive("--shard-size", args.shard_size)
+    if args.seed_start < 0:
+        raise UsageError("--seed-start must be non-negative")
+    out = prepare_out_dir(args.out)
+    summary = generate_dataset(out, args.scenes, args.seed_start, args.observer, args.shard_size)
+    print(json.dumps(summary))
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    from tsad_drake.prehensile.training import train
+
+    _positive("--epochs", args.epochs)
+    _positive("--batch", args.batch)
+    _positive("--threads", args.threads)
+    if not args.lr > 0 or not args.max_minutes > 0:
+        raise UsageError("--lr and --max-minutes must be positive")
+    data = Path(args.data)
+    if not data.is_dir() or not any(data.glob("shard_*.npz")):
+        raise UsageError(f"no dataset shards in {data} (generate them with `tsad dataset`)")
+    out = prepare_out_file(args.out)
+    try:
+        summary = train(data, out, args.epochs, args.batch, args.lr, args.seed, args.max_minutes,
+                        args.threads)
+    except ValueError as err:
+        raise UsageError(str(err)) from None
+    print(json.dumps({k: v for k, v in summary.items() if k != "history"}))
+    return 0
+
+
+def cmd_net_calibrate(args: argparse.Namespace) -> int:
+    from tsad_drake.prehensile.checkpoint import load_checkpoint
+    from tsad_drake.prehensile.training import calibrate_thresholds
+
+    _positive("--scenes", args.scenes)
+    load_checkpoint(args.weights)  # one clear line on a missing or bad file
+    print(json.dumps(calibrate_thresholds(Path(args.weights), args.scenes)))
+    return 0
+
+
+def cmd_net_eval(args: argparse.Namespace) -> int:
+    from tsad_drake.prehensile.checkpoint import load_checkpoint
+    from tsad_drake.prehensile.feasibility import NetFeasibility
+    from tsad_drake.prehensile.training import evaluate_scenes, format_table
+
+    _positive("--scenes", args.scenes)
+    if args.seed_start < 0:
+        raise UsageError("--seed-start must be non-negative")
+    _, meta = load_checkpoint(args.weights)  # one clear line on a missing or bad file
+    last = args.seed_start + args.scenes - 1
+    used = [("training", meta.get("seed_range")), ("calibration", meta.get("calibration", {}).get("seeds"))]
+    for what, seeds in used:
+        if seeds and args.seed_start <= seeds[1] and last >= seeds[0]:
+            raise UsageError(f"seeds {args.seed_start}..{last} overlap the {what} scenes "
+                             f"{seeds[0]}..{seeds[1]} of these weights: pick another --seed-start")
+    out = prepare_out_file(args.out) if args.out else None
+    result = evaluate_scenes(lambda ws: NetFeasibility(ws, args.weights), args.scenes,
+                             args.seed_start, args.observer)
+    result["weights"] = str(args.weights or "shipped")
+    result["seeds"] = [args.seed_start, args.seed_start + args.scenes - 1]
+    print(format_table(result))
+    text = json.dumps(result, indent=1)
+    print(text)
+    if out:
+        out.write_text(text + "\n")
+    return 0
+
+
+NET_COMMANDS = {"dataset": cmd_dataset, "train": cmd_train, "net-calibrate": cmd_net_calibrate,
+                "net-eval": cmd_net_eval}

@@ -1,0 +1,182 @@
+"""`tsad plan`, `tsad bench` and `tsad report`: the planning half of the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from tsad_drake.cli.common import prepare_out_dir, prepare_out_file, resolve_scenario
+from tsad_drake.errors import UsageError
+
+PLANNER_NAMES = ("tsad", "gp3", "rots", "rots-star", "rots-star-search", "optimal")
+FEASIBILITY_NAMES = ("net", "geometric", "oracle")
+#: --feasibility when none is given (any other planner: geometric)
+DEFAULT_FEASIBILITY = {"tsad": "net", "optimal": "oracle"}
+ABLATIONS = ("none", "no-ro", "no-re")
+OBSERVERS = ("drake", "raycast")
+
+
+def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
+    p.add_argument("--planner", required=True, choices=PLANNER_NAMES,
+                   help="tsad (the paper's method), gp3, rots, rots-star (ROTS's sequence checked "
+                        "step by step by the feasibility model, as in the paper), "
+                        "rots-star-search (a stronger ROTS*: the model inside the A* search) "
+                        "or optimal (exhaustive search on the oracle model, budgeted: the floor "
+                        "for action counts)")
+    p.add_argument("--feasibility", default=None, choices=FEASIBILITY_NAMES,
+                   help="prehensile feasibility model the planner queries: net (the shipped "
+                        "PointNet++ prehensile network; default for tsad), geometric (gripper "
+                        "swept volume against perceived point clouds; default for gp3 and the "
+                        "rots planners) or oracle (true geometry; default for optimal)")
+    p.add_argument("--ablation", default="none", choices=ABLATIONS,
+                   help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none)")
+    p.add_argument("--observer", default=default_observer, choices=OBSERVERS,
+                   help="how the robot observes: drake renders depth in the Drake station (VTK), "
+                        "raycast renders the same camera with the NumPy ray caster "
+                        f"(default {default_observer})")
+    p.add_argument("--open-loop", action="store_true",
+                   help="execute the whole plan without observing again after each sub-search")
+    p.add_argument("--max-actions", type=int, default=12,
+                   help="episode limit on pick-and-place actions (default 12)")
+
+
+def add_plan_parsers(sub, add_scenario_args) -> None:
+    p = sub.add_parser("plan", help="observe, plan and execute one episode; write plan.json",
+                       description=(
+                           "Observe the scene, plan with the chosen planner and feasibility "
+                           "model, execute in the world model (closed loop: re-observe after "
+                           "each sub-search) and write DIR/plan.json. Exit 0 on success, 1 when "
+                           "the target could not be retrieved (the JSON says why)."))
+    add_scenario_args(p)
+    _add_planner_args(p, default_observer="drake")
+    p.add_argument("--motion", action="store_true",
+                   help="verify every action at the motion level (IK keyframes, trajectory "
+                        "optimisation, dense collision check) before executing it; a rejected "
+                        "action is excluded and TSAD plans again. Also writes DIR/replay.html "
+                        "(offline Meshcat recording) and DIR/scene.dmd.yaml")
+    p.add_argument("--out", default="out/plan", help="output directory (default out/plan)")
+
+    p = sub.add_parser("bench", help="run many episodes; print a table in the paper's format",
+                       description=(
+                           "Run N episodes (seeds K..K+N-1) of one planner on one scenario, print "
+                           "a table like the paper's Table I and write per-episode rows plus a "
+                           "summary to FILE.json. Rows stream to FILE.json.rows.jsonl, so an "
+                           "interrupted bench resumes where it stopped."))
+    p.add_argument("--scenario", required=True, help="built-in scenario 1, 2, 3 or real")
+    p.add_argument("--episodes", type=int, default=30, help="number of episodes (default 30)")
+    p.add_argument("--seed-start", type=int, default=0, help="first seed (default 0)")
+    p.add_argument("--occluded", action="store_true",
+                   help="scenes with the target fully hidden (the paper's section VI-D)")
+    _add_planner_args(p, default_observer="raycast")
+    p.add_argument("--motion", action="store_true",
+                   help="verify every action at the motion level before executing it (as "
+                        "`tsad plan --motion`); rows and summary report the share of checked "
+                        "actions that were motion-feasible")
+    p.add_argument("--workers", type=int, default=1,
+                   help="episodes run in this many parallel processes (default 1)")
+    p.add_argument("--out", required=True, help="result JSON file")
+
+    p = sub.add_parser("report", help="collect bench JSON files into a results page",
+                       description="Collect `tsad bench` JSON files into markdown tables in the "
+                                   "paper's format, a JSON digest and a plot.")
+    p.add_argument("inputs", nargs="+", help="bench result JSON files")
+    p.add_argument("--out", required=True, help="markdown file to write (plot and JSON beside it)")
+
+
+def _validate_common(args: argparse.Namespace) -> None:
+
+    if args.feasibility is None:
+        args.feasibility = DEFAULT_FEASIBILITY.get(args.planner, "geometric")
+    if args.max_actions <= 0:
+        raise UsageError("--max-actions must be at least 1")
+    if args.feasibility == "net":
+        from tsad_drake.prehensile.checkpoint import load_checkpoint
+
+        load_checkpoint()  # a missing or mismatched weights file: one line, exit 2
+
+
+def cmd_plan(args: argparse.Namespace) -> int:
+    _validate_common(args)
+    from tsad_drake.pipeline import EpisodeSettings, plan_episode
+
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    out = prepare_out_dir(args.out)
+    settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
+                               ablation=args.ablation, observer=args.observer,
+                               closed_loop=not args.open_loop, max_actions=args.max_actions,
+                               motion=args.motion)
+    result = plan_episode(scenario, args.seed, settings, out)
+    path = out / "plan.json"
+    tmp = path.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(result, indent=2))
+    tmp.replace(path)
+    print(f"planner {args.planner} ({args.feasibility}) on scenario {scenario.name} seed "
+          f"{args.seed}: theta* = {result.get('theta_star_deg')} deg")
+    for i, a in enumerate(result["actions"]):
+        print(f"  {i + 1:2d}. move {a['object']:<8} pick at {a['theta_pick_deg']:+5.0f} deg -> "
+              f"({a['place_xy'][0]:.3f}, {a['place_xy'][1]:.3f}) place at "
+              f"{a['theta_place_deg']:+5.0f} deg  [sub-search {a['sub_search']}]")
+    if args.motion:
+        motion = result["motion"]
+        share = result.get("motion_feasible_share")
+        print(f"motion: {sum(m['verified'] for m in motion)}/{len(motion)} executed actions "
+              f"verified as one continuous motion; "
+              f"{'-' if share is None else f'{share:.0%}'} of checked actions motion-feasible")
+        for i, m in enumerate(motion):
+            if not m["verified"]:
+                print(f"  action {i + 1}: {m['failure']}")
+        print(f"wrote {out / 'replay.html'} and {out / 'scene.dmd.yaml'}")
+    verdict = "target retrieved" if result["success"] else f"FAILED: {result['failure_reason']}"
+    print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
+          f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")
+    print(f"wrote {path}")
+    return 0 if result["success"] else 1
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from tsad_drake.bench.metrics import paper_table
+    from tsad_drake.bench.runner import EpisodeSpec, run_bench
+    from tsad_drake.scenes import BUILTIN_SCENARIOS
+
+    _validate_common(args)
+    if args.scenario not in BUILTIN_SCENARIOS:
+        raise UsageError(f"unknown scenario {args.scenario!r}: bench runs built-in scenarios "
+                         f"{', '.join(BUILTIN_SCENARIOS)}")
+    if args.episodes <= 0:
+        raise UsageError("--episodes must be at least 1")
+    if args.workers <= 0:
+        raise UsageError("--workers must be at least 1")
+    if args.seed_start < 0:
+        raise UsageError("--seed-start must be non-negative")
+    out = prepare_out_file(args.out)
+    specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
+                         feasibility=args.feasibility, ablation=args.ablation,
+                         observer=args.observer, occluded=args.occluded,
+                         closed_loop=not args.open_loop, motion=args.motion)
+             for i in range(args.episodes)]
+    document = run_bench(specs, out, workers=args.workers)
+    label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"
+    print(paper_table({label: document["summary"]}))
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from tsad_drake.bench.report import write_report
+
+    documents = []
+    for name in args.inputs:
+        try:
+            documents.append(json.loads(Path(name).read_text()))
+        except (OSError, json.JSONDecodeError) as err:
+            raise UsageError(f"cannot read bench result {name}: {err}") from None
+        if "summary" not in documents[-1] or "spec" not in documents[-1]:
+            raise UsageError(f"{name} is not a `tsad bench` result")
+    out = prepare_out_file(args.out)
+    write_report(documents, out)
+    print(f"wrote {out}")
+    return 0
+
+
+PLAN_COMMANDS = {"plan": cmd_plan, "bench": cmd_bench, "report": cmd_report}

@@ -1,0 +1,159 @@
+"""The one composition root: scenario -> observer -> world -> feasibility -> planner -> episode.
+
+`tsad plan`, the bench and Python callers assemble episodes here from names (as on the command
+line); everything below takes its collaborators as arguments. The observers live here because
+they are the only place where the planner's world touches rendering.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+from tsad_drake.execution.episode import EpisodeLimits, run_episode
+from tsad_drake.execution.world import GeometricWorld, Observer
+from tsad_drake.perception.types import PerceivedScene
+from tsad_drake.planning.feasibility import GeometricFeasibility, OracleFeasibility
+from tsad_drake.planning.interface import FeasibilityModel
+from tsad_drake.planning.registry import get_planner, make_config
+from tsad_drake.planning.types import Workspace
+from tsad_drake.scenario import Scenario
+
+#: the feasibility models by name (`--feasibility`)
+FEASIBILITY_NAMES = ("net", "geometric", "oracle")
+
+
+def make_feasibility(name: str, scenario: Scenario, workspace: Workspace) -> FeasibilityModel:
+    """The feasibility model called `name`: "oracle" (true shapes from `scenario`), "geometric"
+    (perceived point clouds) or "net" (the shipped prehensile network; WeightsError if bad)."""
+    if name == "oracle":
+        return OracleFeasibility(scenario, workspace)
+    if name == "geometric":
+        return GeometricFeasibility(workspace)
+    if name == "net":
+        from tsad_drake.prehensile.feasibility import NetFeasibility
+
+        return NetFeasibility(workspace)
+    raise ValueError(f"unknown feasibility model {name!r}: use one of {', '.join(FEASIBILITY_NAMES)}")
+
+
+@dc.dataclass(frozen=True)
+class EpisodeSettings:
+    """How to run an episode (names as on the command line)."""
+
+    planner: str = "tsad"
+    feasibility: str = "geometric"
+    ablation: str = "none"
+    observer: str = "raycast"  #: raycast (NumPy ray caster) | drake (VTK renders in the station)
+    closed_loop: bool = True
+    max_actions: int = 12  #: pick-and-places allowed in the episode, random ones included
+    segmentation: str = "label"
+    motion: bool = False  #: verify each action at the motion level before executing it
+
+
+class RaycastObserver:
+    """Observation with the NumPy ray caster (same camera, same pipeline, no Drake)."""
+
+    def __init__(self, segmentation: str = "label") -> None:
+        self.segmentation = segmentation
+
+    def __call__(self, truth: Scenario) -> PerceivedScene:
+        from tsad_drake.perception.observe import observe_raycast
+
+        return observe_raycast(truth, segmentation=self.segmentation).scene
+
+
+class DrakeObserver:
+    """Observation through the Drake station: built once, objects moved for each new observation."""
+
+    def __init__(self, scenario: Scenario, segmentation: str = "label") -> None:
+        from tsad_drake.station import MakeStation
+
+        self.station = MakeStation(scenario)
+        self.segmentation = segmentation
+
+    def __call__(self, truth: Scenario) -> PerceivedScene:
+        from tsad_drake.perception.observe import observe
+
+        self.station.set_objects(truth.objects)
+        return observe(self.station, segmentation=self.segmentation).scene
+
+
+def make_observer(name: str, scenario: Scenario, segmentation: str = "label") -> Observer:
+    """The observer called `name` ("raycast" or "drake") for scenes like `scenario`."""
+    if name == "raycast":
+        return RaycastObserver(segmentation)
+    if name == "drake":
+        return DrakeObserver(scenario, segmentation)
+    raise ValueError(f"unknown observer {name!r}: use raycast or drake")
+
+
+def initial_rearrangement_set_size(scenario: Scenario) -> int:
+    """|R_theta*| on the true scene at the start, theta* = the angle with the fewest blockers."""
+    from tsad_drake.scenario_generator import target_blockers
+
+    return min(len(target_blockers(scenario, th)) for th in scenario.approach_angles)
+
+
+def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> dict:
+    """Run one episode and return its JSON row (plan.json fields plus difficulty figures)."""
+    config = make_config(settings.planner, settings.ablation)
+    world = GeometricWorld(scenario, make_observer(settings.observer, scenario,
+                                                  settings.segmentation))
+    action_check = None
+    if settings.motion:
+        from tsad_drake.motion.verify import is_pick_failure, motion_check
+
+        def action_check(truth: Scenario, action) -> tuple[bool, str]:
+            ok, why = motion_check(truth, action)
+            return ok, ("" if ok else ("pick: " if is_pick_failure(why) else "place: ") + why)
+
+    def model(truth: Scenario, workspace: Workspace) -> FeasibilityModel:
+        return make_feasibility(settings.feasibility, truth, workspace)
+
+    result = run_episode(world, get_planner(settings.planner), model, config, seed,
+                         closed_loop=settings.closed_loop,
+                         limits=EpisodeLimits(max_actions=settings.max_actions),
+                         action_check=action_check, feasibility_name=settings.feasibility)
+    row = result.to_json()
+    if settings.motion:
+        checks = row["motion_checks"]
+        row["motion_feasible_share"] = (sum(c["verified"] for c in checks) / len(checks)
+                                        if checks else None)
+    row["ablation"] = settings.ablation
+    row["observer"] = settings.observer
+    row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
+    first_stats = row["rounds"][0]["stats"] if row["rounds"] else {}
+    if settings.planner == "optimal":
+        row["optimal_finished"] = bool(first_stats.get("optimal_finished", False))
+    return row
+
+
+def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
+                 out_dir=None) -> dict:
+    """`tsad plan`: one episode on a given scene, as the plan.json document.
+
+    With `settings.motion`, the executed actions are verified again as one continuous motion from
+    the ready pose; `motion` holds the segments, and `out_dir` gets `replay.html` (an offline
+    Meshcat recording) and `scene.dmd.yaml` (Drake model directives of the scene).
+    """
+    row = run_settings(scenario, seed, settings)
+    if settings.motion:
+        from tsad_drake.motion.export import (
+            actions_from_records,
+            motion_section,
+            write_scene_directives,
+        )
+        from tsad_drake.motion.replay import write_replay_html
+        from tsad_drake.motion.verify import verify_plan
+
+        actions = actions_from_records(row["actions"])
+        motions = verify_plan(scenario, actions)
+        row["motion"] = motion_section(scenario, motions)
+        if out_dir is not None:
+            write_replay_html(scenario, actions, motions, out_dir / "replay.html")
+            write_scene_directives(scenario, out_dir)
+    row["scenario"] = scenario.name
+    row["theta_star_deg"] = (None if row.get("theta_star_deg") is None
+                             else round(float(row["theta_star_deg"]), 6))
+    row["settings"] = dc.asdict(settings)
+    return row

@@ -1,0 +1,71 @@
+"""TSAD's settings: the paper's parameters and every option beyond the paper, each with its unit."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+
+@dc.dataclass
+class TSADConfig:
+    """Every constant of TSAD (paper values where it gives them)."""
+
+    #: sub-MCTS iterations per sub-search (docs/design.md gives the measurement behind 120)
+    iterations: int = 120
+    max_iterations: int = 300  #: iterations a sub-search may use while it has found no terminal state
+    exploration: float = 0.3  #: c, UCB exploration coefficient (dimensionless)
+    step_penalty: float = 0.1  #: alpha, value lost per action (dimensionless)
+    max_depth: int = 4  #: d_max, actions per sub-search (tree plus rollout)
+    w_o: float = 0.5  #: weight of r_o (new obstacle penalty)
+    w_e: float = 0.3  #: weight of r_e (empty cells)
+    empty_gain: float = 0.1  #: r_e gained per extra empty grid cell
+    empty_cap: float = 1.0  #: largest r_e
+    empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
+    widening: float | None = 3.0  #: children <= widening * sqrt(N(s)); None: expand all first
+    max_sub_searches: int = 12  #: sub-MCTS runs before giving up
+    #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
+    #: search, so the same seed gives the same plan on any machine (700-1,400 iterations/s on
+    #: scenario 2 on a 2-core machine; a five-blocker scene needs about 9,000 for a first plan)
+    iteration_budget: int = 20_000
+    #: s, wall-clock cap of one plan_tsad call: a safety net only (a plan cut by it depends on the
+    #: machine's speed; the plan's stats say `time_capped`)
+    time_budget_s: float = 60.0
+    use_ro: bool = True  #: ablation: False drops r_o ("w/o r_o")
+    use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
+    max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
+    angle_fallbacks: int = 6  #: next-ranked angles tried when theta* yields no complete plan
+    #: relocations (object, x, y) that motion planning rejected; the closed loop adds to it and
+    #: plans again, and no action of the plan is one of them (at any depth, not only the first)
+    excluded_actions: tuple[tuple[str, float, float], ...] = ()
+    #: probability that a rollout step moves a relevant object (a member of R_{theta*,s} or an
+    #: object blocking a member along theta*) instead of any object; 0 is the paper's uniform
+    #: random policy. Expansion also tries relevant objects' actions first when this is > 0.
+    rollout_bias: float = 0.7
+    #: whole sequential searches tried (fresh random streams) until one reaches R = empty; the
+    #: sub-searches are myopic, so a dead end later on is escaped by searching again
+    restarts: int = 2
+    #: closed loop: still plan every sub-search (and execute only the first), so the executed
+    #: sub-plan is part of a complete plan; False is the paper's first-sub-search-only planning
+    lookahead: bool = True
+    #: closed loop: after a sub-search is executed and the scene observed again, keep the rest of
+    #: the last plan when it is still feasible on the new observation (`plan_check`) instead of
+    #: searching afresh; False re-plans every round as the paper does
+    reuse_plans: bool = True
+    #: drop or merge the actions of a found plan that it does not need (`plan_check.shorten_plan`):
+    #: random rollouts leave detours in the tree; False keeps the plan as the search extracted it
+    shorten: bool = True
+    #: complete plans collected (each from a fresh sequential search) before the shortest is
+    #: returned; 1 returns the first plan found, as the paper does
+    complete_plans: int = 3
+    #: sub-MCTS iterations allowed after the first complete plan for finding shorter ones
+    improve_iterations: int = 2_000
+    #: terminal states of a sub-search tried, best first, before the search backs up further
+    #: when a later sub-search finds no terminal state (depth-first backtracking over the
+    #: sequence); 1 keeps the extracted one only, as the paper does; a myopic first sub-search
+    #: no longer dooms the attempt
+    backtrack_width: int = 3
+    #: rollouts draw their random actions with the feasibility model's cheaper `rollout_model`
+    #: when it has one (the network: its point-cloud placement model), rewards still come from
+    #: the model itself, and a rollout that reaches a terminal state joins the tree only after
+    #: each of its actions is re-derived and checked on the model itself (`SubSearch.recheck`).
+    #: Rollouts were 86% of the network's search time; False asks the network at every step
+    fast_rollouts: bool = True
