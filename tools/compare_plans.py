@@ -3,6 +3,7 @@ recordings field by field with wall-clock timings left out.
 
     python tools/compare_plans.py record DIR [--jobs 2]   # run every case, write DIR/<case>/plan.json
     python tools/compare_plans.py compare DIR_A DIR_B      # exit 0 when every plan.json agrees
+    (both take --only PREFIX, e.g. --only s1-tsad-net: the network cases, best run alone, --jobs 1)
 
 The cases are the restructuring issue's: `tsad plan` for tsad, gp3, rots, rots-star (geometric model)
 and optimal (its default, the oracle) on scenario 2 seeds 0-9, TSAD on the network for scenario 1
@@ -19,7 +20,8 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-#: keys whose values are wall-clock measurements (or derived from them), left out of comparisons
+#: keys whose values are wall-clock measurements (or derived from them), left out of comparisons,
+#: with every key ending in `_time_s` or `_seconds`
 TIMING_KEYS = {"planning_time_s", "network_seconds", "elapsed_s", "time_s", "seconds",
                "iterations_per_s", "wall_s", "time_capped"}
 
@@ -47,16 +49,18 @@ def _run(name: str, args: list[str], root: Path) -> str:
     return f"{name}: exit {proc.returncode}"
 
 
-def record(root: Path, jobs: int) -> None:
+def record(root: Path, jobs: int, only: str = "") -> None:
     root.mkdir(parents=True, exist_ok=True)
+    chosen = {k: v for k, v in cases().items() if k.startswith(only)}
     with ThreadPoolExecutor(jobs) as pool:
-        for line in pool.map(lambda kv: _run(kv[0], kv[1], root), cases().items()):
+        for line in pool.map(lambda kv: _run(kv[0], kv[1], root), chosen.items()):
             print(line, flush=True)
 
 
 def _strip(value):
     if isinstance(value, dict):
-        return {k: _strip(v) for k, v in value.items() if k not in TIMING_KEYS}
+        return {k: _strip(v) for k, v in value.items()
+                if k not in TIMING_KEYS and not k.endswith(("_time_s", "_seconds"))}
     if isinstance(value, list):
         return [_strip(v) for v in value]
     return value
@@ -80,9 +84,10 @@ def _time_capped(document: dict) -> bool:
     return any(r.get("stats", {}).get("time_capped") for r in document.get("rounds", []))
 
 
-def compare(a: Path, b: Path) -> int:
+def compare(a: Path, b: Path, only: str = "") -> int:
     bad = capped = 0
-    for name in cases():
+    names = [k for k in cases() if k.startswith(only)]
+    for name in names:
         pa, pb = a / name / "plan.json", b / name / "plan.json"
         if not pa.exists() or not pb.exists():
             print(f"{name}: missing plan.json in {'A' if not pa.exists() else 'B'}")
@@ -97,7 +102,7 @@ def compare(a: Path, b: Path) -> int:
         if diffs:
             bad += 1
             print(f"{name}: {len(diffs)} differences, first: " + "; ".join(diffs[:3]))
-    print(f"{len(cases()) - bad - capped} of {len(cases()) - capped} comparable plan.json documents "
+    print(f"{len(names) - bad - capped} of {len(names) - capped} comparable plan.json documents "
           f"agree ({capped} time-capped)")
     return 1 if bad else 0
 
@@ -108,14 +113,16 @@ def main() -> int:
     p = sub.add_parser("record")
     p.add_argument("out", type=Path)
     p.add_argument("--jobs", type=int, default=2)
+    p.add_argument("--only", default="", help="run only the cases whose name starts with this")
     p = sub.add_parser("compare")
     p.add_argument("a", type=Path)
     p.add_argument("b", type=Path)
+    p.add_argument("--only", default="", help="compare only the cases whose name starts with this")
     args = parser.parse_args()
     if args.command == "record":
-        record(args.out, args.jobs)
+        record(args.out, args.jobs, args.only)
         return 0
-    return compare(args.a, args.b)
+    return compare(args.a, args.b, args.only)
 
 
 if __name__ == "__main__":

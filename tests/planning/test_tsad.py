@@ -413,7 +413,8 @@ def test_shortened_plans_are_split_into_sub_searches_afresh(key, scenes, plans):
 
 def test_a_sub_search_offers_distinct_terminal_states_best_first(scenes):
     from tsad_drake.planning.interface import angle_index
-    from tsad_drake.planning.tsad_search import EmptyCells, SubSearch, optimal_angle
+    from tsad_drake.planning.tsad import optimal_angle
+    from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 
     scenario, workspace, state = scenes[("1", 0)]
     oracle = make_feasibility("oracle", scenario, workspace)

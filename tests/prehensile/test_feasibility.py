@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from tsad_drake.cli import UsageError
+from tsad_drake.errors import UsageError
 from tsad_drake.prehensile import dataset as pdata
 from tsad_drake.prehensile import encoding
 from tsad_drake.prehensile.checkpoint import DEFAULT_WEIGHTS, save_checkpoint

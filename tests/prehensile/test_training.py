@@ -1,14 +1,12 @@
 """Training lowers the loss; checkpoints round-trip; bad weights are bad input (exit 2);
 the shipped weights beat a majority-class classifier on fresh scenes."""
 
-import sys
 
 import numpy as np
 import pytest
 import torch
 
-from tsad_drake.cli import EXIT_BAD_INPUT, UsageError
-from tsad_drake.errors import WeightsError
+from tsad_drake.errors import EXIT_BAD_INPUT, UsageError, WeightsError
 from tsad_drake.prehensile import dataset as pdata
 from tsad_drake.prehensile.checkpoint import DEFAULT_WEIGHTS, load_checkpoint, save_checkpoint
 from tsad_drake.prehensile.network import PrehensileNet
@@ -75,24 +73,10 @@ def test_mismatched_weights_raise_usage_error(tmp_path):
 
 
 def _run_cli(argv):
-    """`tsad <argv>` through the real entry point when the net commands are wired, else through
-    the same parser class and error handling the lead's `main` uses."""
-    from tsad_drake import cli
+    """`tsad <argv>` through the real entry point."""
+    from tsad_drake.cli import main
 
-    parser = cli.build_parser()
-    choices = next(a for a in parser._actions if a.dest == "command").choices
-    if "net-eval" in choices:
-        return cli.main(argv)
-    from tsad_drake.cli.net import NET_COMMANDS, add_net_parsers
-
-    parser = cli._Parser(prog="tsad")
-    add_net_parsers(parser.add_subparsers(dest="command", required=True, parser_class=cli._Parser))
-    args = parser.parse_args(argv)
-    try:
-        return NET_COMMANDS[args.command](args)
-    except UsageError as err:
-        print(f"tsad: error: {err}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    return main(argv)
 
 
 def test_corrupted_weights_exit_2_through_the_cli(tmp_path, capsys):

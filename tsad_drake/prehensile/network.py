@@ -1,6 +1,6 @@
 """The prehensile decision network: a small PointNet++ in plain PyTorch (no compiled extensions).
 
-Input: one query (see `prehensile_data.encode_query`): NUM_POINTS points with scaled xy in the
+Input: one query (see `encoding.encode_query`): NUM_POINTS points with scaled xy in the
 approach frame (approach along +x, queried object at the origin) and per-point features (height,
 is-queried-object, is-wall, in-corridor). Two set-abstraction modules (farthest point sampling +
 ball query + shared MLP + max pool: 256 -> 64 centroids x 16 neighbours -> 16 centroids x 16
@@ -40,7 +40,7 @@ class NetConfig:
     """Sizes of the network (radii are in scaled units: metres / COORD_SCALE)."""
 
     num_points: int = 256
-    in_features: int = 6  #: prehensile_data.NUM_FEATURES
+    in_features: int = 6  #: encoding.NUM_FEATURES
     sa1_centroids: int = 64
     sa1_neighbours: int = 16
     sa1_radius: float = 0.3  #: 0.06 m

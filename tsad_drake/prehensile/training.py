@@ -291,7 +291,7 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
     probability threshold that maximises pickable accuracy on fresh scenes (every (object,
     angle): the planners' distribution, not the balanced training one; ties go to the lower
     reach threshold), then the set threshold that makes R_{theta,s} exact most often
-    (`net_feasibility.blocker_set`), and store them in the checkpoint's meta."""
+    (`prehensile.feasibility.blocker_set`), and store them in the checkpoint's meta."""
     from tqdm import tqdm
 
     net, meta = load_checkpoint(weights)

@@ -1,4 +1,4 @@
-"""Perceived-footprint error measurement (`bench.hull_errors`)."""
+"""Perceived-footprint error measurement (`bench.studies.hull_errors`)."""
 
 import numpy as np
 
