@@ -8,6 +8,7 @@ they are the only place where the planner's world touches rendering.
 from __future__ import annotations
 
 import dataclasses as dc
+from typing import Any
 
 from tsad_drake.execution.episode import EpisodeLimits, run_episode
 from tsad_drake.execution.world import GeometricWorld, Observer
@@ -43,6 +44,9 @@ class EpisodeSettings:
     planner: str = "tsad"
     feasibility: str = "geometric"
     ablation: str = "none"
+    variant: str = "full"  #: full (every extra) | paper (the paper's TSAD exactly); TSAD only
+    #: planner config fields set after the variant and the ablation: ((field, value), ...)
+    planner_overrides: tuple[tuple[str, Any], ...] = ()
     observer: str = "raycast"  #: raycast (NumPy ray caster) | drake (VTK renders in the station)
     closed_loop: bool = True
     max_actions: int = 12  #: pick-and-places allowed in the episode, random ones included
@@ -96,7 +100,8 @@ def initial_rearrangement_set_size(scenario: Scenario) -> int:
 
 def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> dict:
     """Run one episode and return its JSON row (plan.json fields plus difficulty figures)."""
-    config = make_config(settings.planner, settings.ablation)
+    config = make_config(settings.planner, settings.ablation, settings.variant,
+                         **dict(settings.planner_overrides))
     world = GeometricWorld(scenario, make_observer(settings.observer, scenario,
                                                   settings.segmentation))
     action_check = None
@@ -120,6 +125,7 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
         row["motion_feasible_share"] = (sum(c["verified"] for c in checks) / len(checks)
                                         if checks else None)
     row["ablation"] = settings.ablation
+    row["variant"] = settings.variant
     row["observer"] = settings.observer
     row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
     first_stats = row["rounds"][0]["stats"] if row["rounds"] else {}

@@ -164,7 +164,7 @@ def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypat
     scenario, workspace, state = scenes[("walled", 0)]
     calls = []
 
-    def attempt(state, feasibility, workspace, config, rng, theta_star, budget, result):
+    def attempt(state, feasibility, workspace, config, rng, theta_star, budget, result, extras):
         time.sleep(0.1)
         calls.append(theta_star)
         actions = [Action(state.objects[0].name, 0.0, 0.1, 0.0, 0.0)] if len(calls) == 1 else []

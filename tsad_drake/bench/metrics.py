@@ -2,7 +2,28 @@
 
 from __future__ import annotations
 
+import math
 import statistics
+
+#: z of a two-sided 95% interval
+Z95 = 1.959963984540054
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval of a success rate (95% by default); (0, 1) when n is 0."""
+    if n <= 0:
+        return 0.0, 1.0
+    p = successes / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    low = 0.0 if successes == 0 else max(0.0, centre - half)
+    return low, 1.0 if successes == n else min(1.0, centre + half)
+
+
+def intervals_overlap(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Whether two intervals share a point (then the two rates are not told apart)."""
+    return a[0] <= b[1] and b[0] <= a[1]
 
 
 def _mean(values: list[float]) -> float | None:
@@ -16,6 +37,7 @@ def summarise(rows: list[dict]) -> dict:
     summary = {
         "episodes": len(rows),
         "success_rate": len(succ) / len(rows) if rows else 0.0,
+        "success_interval_95": list(wilson_interval(len(succ), len(rows))),
         "actions_success": _mean([r["num_actions"] for r in succ]),
         "actions_all": _mean([r["num_actions"] for r in rows]),
         "falls_success": _mean([r["falls"] for r in succ]),
@@ -56,6 +78,9 @@ def paper_table(columns: dict[str, dict]) -> str:
         lines.append(f"| {label} | " + " | ".join(cell(columns[n]) for n in names) + " |")
 
     row("Success Rate", lambda s: _fmt(s["success_rate"]))
+    row("95% interval (Wilson)", lambda s: "{:.2f}-{:.2f}".format(
+        *s.get("success_interval_95") or wilson_interval(
+            round(s["success_rate"] * s["episodes"]), s["episodes"])))
     row("Avg. of Actions", lambda s: f"{_fmt(s['actions_success'])} / {_fmt(s['actions_all'])}")
     row("Avg. of Falls", lambda s: f"{_fmt(s['falls_success'])} / {_fmt(s['falls_all'])}")
     row("Planning time median [s]", lambda s: _fmt(s["planning_time_median_s"]))

@@ -15,7 +15,7 @@ from tsad_drake.planning.gp3 import GP3Config, plan_gp3
 from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.rots import ROTSConfig, plan_rots, plan_rots_star
 from tsad_drake.planning.tsad import plan_tsad
-from tsad_drake.planning.tsad_config import TSADConfig
+from tsad_drake.planning.tsad_config import VARIANTS, TSADConfig
 
 #: plan(state, feasibility, workspace, config, rng) -> Plan
 PlanFunction = Callable[..., Any]
@@ -40,6 +40,8 @@ class PlannerSpec:
     reuse: bool = False
     #: takes the paper's reward ablations (`ABLATIONS`)
     ablations: bool = False
+    #: named variants: name -> config overrides ("full" is the default config)
+    variants: dict[str, dict[str, Any]] = dc.field(default_factory=lambda: {"full": {}})
 
 
 #: TSAD ablations of the paper's Table II: name -> config overrides
@@ -55,7 +57,7 @@ def register(spec: PlannerSpec) -> None:
 
 
 register(PlannerSpec("tsad", plan_tsad, TSADConfig, sub_searches=True, exclusions=True,
-                     reuse=True, ablations=True))
+                     reuse=True, ablations=True, variants=VARIANTS))
 register(PlannerSpec("gp3", plan_gp3, GP3Config))
 register(PlannerSpec("rots", plan_rots, ROTSConfig))
 register(PlannerSpec("rots-star", plan_rots_star, lambda: ROTSConfig(check_feasibility=True)))
@@ -71,14 +73,20 @@ def get_planner(name: str) -> PlannerSpec:
     return PLANNERS[name]
 
 
-def make_config(name: str, ablation: str = "none", **overrides: Any) -> Any:
-    """Default config of planner `name`, with an ablation and field overrides."""
+def make_config(name: str, ablation: str = "none", variant: str = "full", **overrides: Any) -> Any:
+    """Default config of planner `name` in `variant`, with an ablation and field overrides
+    (applied in that order)."""
     spec = get_planner(name)
     config = spec.default_config()
+    if variant not in spec.variants:
+        raise ValueError(f"planner {name!r} has no variant {variant!r}: use one of "
+                         f"{', '.join(spec.variants)}")
+    changes = dict(spec.variants[variant])
     if ablation != "none":
         if ablation not in ABLATIONS:
             raise ValueError(f"unknown ablation {ablation!r}: use one of {', '.join(ABLATIONS)}")
         if not spec.ablations:
             raise ValueError(f"ablation {ablation!r} applies to tsad only")
-        overrides = {**ABLATIONS[ablation], **overrides}
-    return dc.replace(config, **overrides) if overrides else config
+        changes.update(ABLATIONS[ablation])
+    changes.update(overrides)
+    return dc.replace(config, **changes) if changes else config

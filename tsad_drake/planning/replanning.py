@@ -84,7 +84,9 @@ class ReplanningPolicy:
             self.config = dc.replace(self.config, excluded_actions=tuple(self.excluded))
         plan = (reused(self.pending, state, feasibility, workspace, frozenset(self.excluded))
                 if self.pending else None)
-        if plan is None:
+        if plan is not None:
+            plan.stats = {**plan.stats, "extras_used": {"reuse_plans": 1}}
+        else:
             plan = self.spec.plan(state, feasibility, workspace, self.config, rng)
         self.pending = None
         return plan
@@ -96,6 +98,8 @@ class ReplanningPolicy:
         first = plan.actions[0].sub_search
         todo = [a for a in plan.actions if a.sub_search == first]
         rest = plan.actions[len(todo):]
+        if rest and "extras_used" in plan.stats:  # sub-searches planned beyond the one executed
+            plan.stats["extras_used"]["lookahead"] = len({a.sub_search for a in rest})
         if self.reuse and plan.success and rest:
             self.pending = dc.replace(plan, actions=rest)
         return todo

@@ -11,16 +11,20 @@ V(s) = max[R(s), max_child V(s') - alpha] with R(s) = r_t + w_o r_o + w_e r_e, a
 the plan along the highest-value children. theta_pick and theta_place come from the feasibility
 model (`actions.py`); next states from the point-cloud simulation.
 
-Beyond the paper (each a `TSADConfig` field; see its comments): a complete plan is shortened by
-dropping or merging actions while `plan_check.replay_plan` still accepts it (and split into
-sub-searches afresh), the shortest of `complete_plans` complete plans (found within
-`improve_iterations` of the first) is returned, and a sub-search that finds no terminal state makes
-the search back up to the previous sub-search's next-best terminal state (`backtrack_width`).
+Beyond the paper (each a `TSADConfig` field; see its comments; `tsad_config.PAPER` switches every
+one off): a complete plan is shortened by dropping or merging actions while
+`plan_check.replay_plan` still accepts it (and split into sub-searches afresh), the shortest of
+`complete_plans` complete plans (found within `improve_iterations` of the first) is returned, a
+sub-search that finds no terminal state makes the search back up to the previous sub-search's
+next-best terminal state (`backtrack_width`), failed attempts are repeated (`restarts`) and at
+other angles (`angle_fallbacks`), and theta* may come from a greedy ranking (`angle_search`). The
+plan's stats count each extra's uses under `extras_used` (every field of `EXTRAS`, 0 when unused).
 """
 
 from __future__ import annotations
 
 import dataclasses as dc
+from collections import Counter
 from collections.abc import Callable
 
 import numpy as np
@@ -29,11 +33,12 @@ from tsad_drake.planning.actions import (
     choose_theta_pick,
 )
 from tsad_drake.planning.baseline_common import Budget, reachable_angles
+from tsad_drake.planning.gp3 import gp3_optimal_angle
 from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.plan_check import (
     shorten_plan,
 )
-from tsad_drake.planning.tsad_config import TSADConfig
+from tsad_drake.planning.tsad_config import EXTRAS, TSADConfig
 from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 from tsad_drake.planning.types import Action, Plan, PlanningState, Workspace
 
@@ -97,16 +102,29 @@ def optimal_angle(state: PlanningState, feasibility: FeasibilityModel, workspace
     return ranked[0] if ranked else None
 
 
+def choose_theta_star(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
+               config: TSADConfig, rng: np.random.Generator, stats: dict) -> float | None:
+    """TSAD's stage 1 by `config.angle_search`: GP3's order search or the greedy ranking."""
+    if config.angle_search == "gp3":
+        return gp3_optimal_angle(state, feasibility, workspace, rng=rng, stats=stats)[0]
+    if config.angle_search != "greedy":
+        raise ValueError(f"angle_search must be 'greedy' or 'gp3', not {config.angle_search!r}")
+    return optimal_angle(state, feasibility, workspace, config.max_removals)
+
+
 def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
               config: TSADConfig, rng: np.random.Generator) -> Plan:
     """TSAD's plan for taking `state.target` out (a failure result, never an exception or a hang)."""
     budget = Budget(config.iteration_budget, config.time_budget_s)
+    extras: Counter[str] = Counter({name: 0 for name in EXTRAS})
+    angle_stats: dict = {}
     name = "tsad" if config.use_ro and config.use_re else (
         "tsad-no-ro" if config.use_re else "tsad-no-re" if config.use_ro else "tsad-no-ro-no-re")
 
     def result(theta: float | None, actions: list[Action], success: bool, reason: str = "",
                **stats) -> Plan:
-        return Plan(name, theta, actions, success, reason, budget.elapsed, stats)
+        return Plan(name, theta, actions, success, reason, budget.elapsed,
+                    {**stats, **angle_stats, "extras_used": extras})
 
     if not state.target or state.target not in [o.name for o in state.objects]:
         return result(None, [], False, "target not observed")
@@ -114,23 +132,30 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     pick_now = choose_theta_pick(feasibility, state, t, workspace, 0.0)
     if pick_now is not None:
         return result(pick_now, [], True, rearrangement_set_sizes=[0])
-    first = optimal_angle(state, feasibility, workspace, config.max_removals)
+    first = choose_theta_star(state, feasibility, workspace, config, rng, angle_stats)
     if first is None:
-        return result(None, [], False, "target cannot be grasped at any approach angle")
-    ranked = ranked_angles(state, feasibility, workspace, config.max_removals)
-    candidates = [first] + [theta for theta in ranked if theta != first][:config.angle_fallbacks]
+        return result(None, [], False, "target cannot be grasped at any approach angle"
+                      if config.angle_search == "greedy" else "GP3 found no retrieval angle")
+    candidates = [first]
+    if config.angle_fallbacks > 0:
+        ranked = ranked_angles(state, feasibility, workspace, config.max_removals)
+        candidates += [theta for theta in ranked if theta != first][:config.angle_fallbacks]
     best = None  #: the failed attempt that got furthest
     found: list[Plan] = []  #: complete plans, shortened
-    for _ in range(max(config.restarts, 1) + config.complete_plans - 1):
-        for theta_star in candidates:
-            plan = _sequential_sub_search(state, feasibility, workspace, config, rng, theta_star,
-                                          budget, result)
+    for attempt in range(max(config.restarts, 1) + config.complete_plans - 1):
+        for j, angle in enumerate(candidates):
+            if attempt > 0:
+                extras["complete_plans" if found else "restarts"] += 1
+            extras["angle_fallbacks"] += j > 0
+            plan = _sequential_sub_search(state, feasibility, workspace, config, rng, angle,
+                                          budget, result, extras)
             if plan.success:
                 if config.shorten:
                     searched = len(plan.actions)
-                    plan.actions = shorten_plan(state, plan.actions, theta_star, feasibility,
+                    plan.actions = shorten_plan(state, plan.actions, angle, feasibility,
                                                 workspace, frozenset(config.excluded_actions))
                     plan.stats["actions_before_shortening"] = searched
+                    extras["shorten"] += searched - len(plan.actions)
                 found.append(plan)
                 if len(found) == 1:
                     budget.max_iterations = min(budget.max_iterations,
@@ -146,6 +171,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     if found:
         chosen.stats["complete_plans"] = [len(p.actions) for p in found]
     chosen.stats["iterations_total"] = budget.iterations
+    chosen.stats["extras_used"] = dict(extras)
     chosen.stats["time_capped"] = budget.elapsed >= budget.time_limit_s
     chosen.planning_time_s = budget.elapsed  # every attempt, not just the chosen one
     return chosen
@@ -154,7 +180,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
 def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
                            workspace: Workspace, config: TSADConfig, rng: np.random.Generator,
                            theta_star: float, budget: Budget,
-                           result: Callable[..., Plan]) -> Plan:
+                           result: Callable[..., Plan], extras: Counter[str]) -> Plan:
     """Stage 2 of TSAD for one retrieval angle: sub-MCTS after sub-MCTS until R is empty.
 
     When a sub-search finds no terminal state, the search backs up to the previous sub-search
@@ -189,6 +215,7 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
         search = SubSearch(current, k, feasibility, workspace, config, rng, empty_cells,
                            initial_empty, frozenset(config.excluded_actions))
         search.run(budget)
+        extras.update(search.extras)
         iterations.append(search.iterations)
         nodes.append(search.nodes)
         branches = search.alternatives(max(config.backtrack_width, 1))
@@ -196,7 +223,8 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
             why = "search budget spent" if budget.exhausted() else "no terminal state found"
             fail(actions, sizes, f"sub-search {sub}: {why}")
             return None
-        for sub_actions, reached in branches:
+        for j, (sub_actions, reached) in enumerate(branches):
+            extras["backtrack_width"] += j > 0
             plan = descend(reached, sub + 1,
                            actions + [dc.replace(a, sub_search=sub) for a in sub_actions],
                            sizes + [len(feasibility.blockers(reached, reached.target_index)[k])])

@@ -1,4 +1,13 @@
-"""TSAD's settings: the paper's parameters and every option beyond the paper, each with its unit."""
+"""TSAD's settings: the paper's parameters and every option beyond the paper, each with its unit.
+
+`TSADConfig()` is the `full` variant (every extra on). `PAPER` holds the value of each extra that
+switches it off: `make_config("tsad", variant="paper")` is the paper's TSAD (section IV) exactly:
+theta* from GP3's search, sequential sub-MCTS run for a fixed number of iterations with the paper's
+reward (r_e floored at 0), value update, UCB, uniform random rollouts that only estimate values,
+extraction along the highest-value children, one sub-search planned per observation, no plan
+reuse. Parameters the paper does not state (iterations, c, alpha, d_max) keep the defaults below.
+`EXTRAS` lists the fields that are extras (docs/benchmark.md measures each).
+"""
 
 from __future__ import annotations
 
@@ -11,7 +20,9 @@ class TSADConfig:
 
     #: sub-MCTS iterations per sub-search (docs/design.md gives the measurement behind 120)
     iterations: int = 120
-    max_iterations: int = 300  #: iterations a sub-search may use while it has found no terminal state
+    #: iterations a sub-search may use while it has found no terminal state (extra: the search is
+    #: extended past `iterations`; None is the paper's fixed number, `iterations`)
+    max_iterations: int | None = 300
     exploration: float = 0.3  #: c, UCB exploration coefficient (dimensionless)
     step_penalty: float = 0.1  #: alpha, value lost per action (dimensionless)
     max_depth: int = 4  #: d_max, actions per sub-search (tree plus rollout)
@@ -69,3 +80,32 @@ class TSADConfig:
     #: each of its actions is re-derived and checked on the model itself (`SubSearch.recheck`).
     #: Rollouts were 86% of the network's search time; False asks the network at every step
     fast_rollouts: bool = True
+    #: how theta* is chosen: "greedy" ranks the angles by a greedy remove-only sequence
+    #: (`tsad.ranked_angles`, fast); "gp3" takes it from GP3's order search (`gp3_optimal_angle`)
+    #: as the paper does
+    angle_search: str = "greedy"
+    #: a rollout that reaches a terminal state adds its path to the tree, so the search can
+    #: extract it; False: rollouts only estimate the leaf's value (the paper)
+    keep_rollout_paths: bool = True
+    #: extraction follows the highest-value children that lead to a terminal state; False follows
+    #: the highest-value children whatever they lead to (the paper), and fails when the path ends
+    #: in a state that is not terminal
+    terminal_extraction: bool = True
+    #: r_e may go negative (a state with fewer empty cells than the reference is penalised);
+    #: False floors r_e at 0 (the paper: "at the initial value of 0, the value increases by 0.1")
+    negative_empty_reward: bool = True
+
+
+#: the paper's value of every extra: each switches one option beyond the paper off
+PAPER: dict[str, object] = {
+    "max_iterations": None, "widening": None, "restarts": 1, "angle_fallbacks": 0,
+    "rollout_bias": 0.0, "lookahead": False, "reuse_plans": False, "shorten": False,
+    "complete_plans": 1, "backtrack_width": 1, "fast_rollouts": False, "angle_search": "gp3",
+    "keep_rollout_paths": False, "terminal_extraction": False, "negative_empty_reward": False,
+}
+
+#: the extras, by field name (the keys of `PAPER`)
+EXTRAS: tuple[str, ...] = tuple(PAPER)
+
+#: TSAD's variants: name -> config overrides
+VARIANTS: dict[str, dict[str, object]] = {"full": {}, "paper": PAPER}

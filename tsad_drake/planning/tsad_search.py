@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+from collections import Counter
 
 import numpy as np
 
@@ -77,6 +78,9 @@ class SubSearch:
                  empty_cells: EmptyCells, initial_empty: int,
                  excluded: frozenset[tuple[str, float, float]] = frozenset()) -> None:
         self.feasibility, self.workspace, self.config, self.rng = feasibility, workspace, config, rng
+        #: how often each option beyond the paper changed what this search did, by
+        #: `TSADConfig` field name (`tsad_config.EXTRAS`); the paper variant leaves it empty
+        self.extras: Counter[str] = Counter()
         #: the model rollouts draw their actions with (see `TSADConfig.fast_rollouts`)
         self.rollout_model = (feasibility.rollout_model() if config.fast_rollouts
                               else feasibility)
@@ -106,6 +110,11 @@ class SubSearch:
             reward -= cfg.w_o
         if cfg.use_re:
             gain = cfg.empty_gain * (self.empty_cells(state) - self.reference_empty)
+            if gain < 0:
+                if not cfg.negative_empty_reward:
+                    gain = 0.0
+                else:
+                    self.extras["negative_empty_reward"] += 1
             reward += cfg.w_e * min(gain, cfg.empty_cap)
         return reward, terminal
 
@@ -146,6 +155,7 @@ class SubSearch:
                               not in self.excluded]
             candidates = [candidates[j] for j in self.rng.permutation(len(candidates))]
             if self.config.rollout_bias > 0:
+                self.extras["rollout_bias"] += 1
                 relevant = set(self.relevant(state))
                 candidates.sort(key=lambda ic: ic[0] in relevant)
             node.untried = UntriedActions(self.feasibility, state, self.workspace, candidates,
@@ -156,7 +166,10 @@ class SubSearch:
         if self.actions(node).peek() is None:
             return False
         w = self.config.widening
-        return w is None or len(node.children) < max(1.0, w * math.sqrt(node.visits))
+        if w is None or len(node.children) < max(1.0, w * math.sqrt(node.visits)):
+            return True
+        self.extras["widening"] += 1
+        return False
 
     def select_child(self, node: Node) -> Node:
         c = self.config.exploration
@@ -174,9 +187,12 @@ class SubSearch:
         cfg = self.config
         state, path_actions, best = node.state, [], -math.inf
         model = self.rollout_model
+        if model is not self.feasibility:
+            self.extras["fast_rollouts"] += 1
         for step in range(1, cfg.max_depth - node.depth + 1):
             action = None
-            if self.rng.random() < cfg.rollout_bias:
+            if cfg.rollout_bias > 0 and self.rng.random() < cfg.rollout_bias:
+                self.extras["rollout_bias"] += 1
                 action = random_action(model, state, self.workspace, self.rng,
                                        self.theta, among=self.relevant(state))
             if action is None:
@@ -188,6 +204,9 @@ class SubSearch:
             reward, terminal = self.reward(state)
             best = max(best, reward - cfg.step_penalty * step)
             if terminal:
+                if not cfg.keep_rollout_paths:
+                    break  # the paper: the rollout only estimates the leaf's value
+                self.extras["keep_rollout_paths"] += 1
                 if model is not self.feasibility:
                     path_actions = self.recheck(node.state, path_actions)
                     if path_actions is None:  # not feasible on the search's own model
@@ -261,23 +280,40 @@ class SubSearch:
         """Search until this sub-search's iterations (extended while nothing terminal is found)
         or the whole call's `budget` run out; `extract` / `alternatives` read the result."""
         cfg = self.config
+        most = cfg.iterations if cfg.max_iterations is None else cfg.max_iterations
         while not budget.exhausted():
-            if self.iterations >= cfg.max_iterations:
+            if self.iterations >= most:
                 break
-            if self.iterations >= cfg.iterations and self.root.has_terminal:
-                break
+            if self.iterations >= cfg.iterations:
+                if self.root.has_terminal:
+                    break
+                self.extras["max_iterations"] += 1
             self.iterate()
             budget.tick()
             if not self.root.children and self.actions(self.root).peek() is None:
                 break  # nothing can be moved at all
 
     def extract(self) -> list[Action] | None:
-        """Actions along the highest-value children that lead to a terminal state, or None."""
+        """Actions along the highest-value children to a terminal state, or None.
+
+        `terminal_extraction`: only children that lead to a terminal state are followed; else
+        (the paper) the highest-value child whatever it leads to, None when that path ends
+        before a terminal state.
+        """
         if not self.root.has_terminal:
             return None
         node, actions = self.root, []
         while not node.terminal:
-            node = max((ch for ch in node.children if ch.has_terminal), key=lambda ch: ch.value)
+            if not node.children:
+                return None
+            best = max(node.children, key=lambda ch: ch.value)
+            if self.config.terminal_extraction:
+                chosen = max((ch for ch in node.children if ch.has_terminal),
+                             key=lambda ch: ch.value)
+                if chosen is not best:
+                    self.extras["terminal_extraction"] += 1
+                best = chosen
+            node = best
             actions.append(node.action)
         self.terminal_state = node.state
         return actions

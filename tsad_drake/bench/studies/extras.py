@@ -1,0 +1,106 @@
+"""What each of TSAD's extras buys: the `full` variant with one extra switched to its paper value.
+
+    python -m tsad_drake.bench.studies.extras --scenarios 1,2,3 --episodes 10 --workers 2 \
+        --json results/extras.json
+
+Runs closed-loop episodes (ray-cast observations, label segmentation, geometric model) of TSAD
+`full`, `paper`, and `full` without each extra of `tsad_config.EXTRAS` (that field at its paper
+value), on the same scenes (seeds `--seed-start` ..), and prints one markdown row per config:
+success, actions of the successful episodes, falls, median planning time per episode, and how
+often the extras were used. `--only NAME,...` restricts the leave-one-out rows to some extras.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import json
+import statistics
+import sys
+from pathlib import Path
+
+from tsad_drake.pipeline import EpisodeSettings, run_settings
+from tsad_drake.planning.tsad_config import EXTRAS, PAPER
+from tsad_drake.scenes import generate_scenario
+
+#: extras whose paper value changes only the closed loop's behaviour between rounds
+LOOP_EXTRAS = ("lookahead", "reuse_plans")
+
+
+def configs(only: list[str]) -> dict[str, EpisodeSettings]:
+    """The compared configurations by row label."""
+    out = {"full": EpisodeSettings(), "paper": EpisodeSettings(variant="paper")}
+    for name in only or EXTRAS:
+        out[f"full - {name}"] = EpisodeSettings(planner_overrides=((name, PAPER[name]),))
+    return out
+
+
+def _episode(job: tuple[str, str, int, EpisodeSettings]) -> dict:
+    import torch
+
+    torch.set_num_threads(1)
+    label, scenario_name, seed, settings = job
+    row = run_settings(generate_scenario(scenario_name, seed), seed, settings)
+    used: dict[str, int] = {}
+    for rnd in row["rounds"]:
+        for name, count in rnd["stats"].get("extras_used", {}).items():
+            used[name] = used.get(name, 0) + count
+    return {"label": label, "scenario": scenario_name, "seed": seed, "success": row["success"],
+            "num_actions": row["num_actions"], "falls": row["falls"],
+            "planning_time_s": row["planning_time_s"], "extras_used": used,
+            "failure_reason": row["failure_reason"]}
+
+
+def table(rows: list[dict], labels: list[str]) -> str:
+    """One markdown row per config label, over every scenario."""
+    lines = ["| config | episodes | success | actions (successful) | falls | plan s (median) |"
+             " extras used (total) |", "|---|---|---|---|---|---|---|"]
+    for label in labels:
+        mine = [r for r in rows if r["label"] == label]
+        ok = [r for r in mine if r["success"]]
+        used: dict[str, int] = {}
+        for r in mine:
+            for name, count in r["extras_used"].items():
+                used[name] = used.get(name, 0) + count
+        uses = ", ".join(f"{k} {v}" for k, v in sorted(used.items()) if v) or "none"
+        actions = statistics.fmean(r["num_actions"] for r in ok) if ok else float("nan")
+        lines.append(f"| {label} | {len(mine)} | {len(ok) / max(len(mine), 1):.2f} | "
+                     f"{actions:.2f} | {sum(r['falls'] for r in mine)} | "
+                     f"{statistics.median(r['planning_time_s'] for r in mine):.1f} | {uses} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenarios", default="1,2,3", help="comma-separated built-in scenarios")
+    parser.add_argument("--episodes", type=int, default=10, help="episodes (seeds) per scenario")
+    parser.add_argument("--seed-start", type=int, default=0, help="first seed")
+    parser.add_argument("--only", default="", help="comma-separated extras (default: every one)")
+    parser.add_argument("--workers", type=int, default=1, help="worker processes")
+    parser.add_argument("--json", default="", help="write every episode's row here")
+    args = parser.parse_args(argv)
+    only = [n for n in args.only.split(",") if n]
+    unknown = sorted(set(only) - set(EXTRAS))
+    if unknown or args.episodes < 1 or args.workers < 1:
+        print(f"error: unknown extras {unknown}" if unknown else
+              "error: --episodes and --workers must be at least 1", file=sys.stderr)
+        return 2
+    settings = configs(only)
+    jobs = [(label, s, seed, cfg) for label, cfg in settings.items()
+            for s in args.scenarios.split(",")
+            for seed in range(args.seed_start, args.seed_start + args.episodes)]
+    rows = []
+    with cf.ProcessPoolExecutor(args.workers) as pool:
+        for i, row in enumerate(pool.map(_episode, jobs), 1):
+            rows.append(row)
+            print(f"[{i}/{len(jobs)}] {row['label']} s{row['scenario']} seed {row['seed']}: "
+                  f"{'ok' if row['success'] else row['failure_reason']} "
+                  f"({row['num_actions']} actions)", file=sys.stderr, flush=True)
+    print(table(rows, list(settings)))
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
