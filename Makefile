@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow bench bench-extra report lint clean
+.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-extra report lint clean
 
 all: test
 
@@ -41,6 +41,11 @@ demo: setup
 
 test: setup
 	$(VENV)/bin/pytest -q
+	$(MAKE) --no-print-directory wheel-check
+
+# The built wheel, installed outside the repository, renders and plans (tools/wheel_check.sh).
+wheel-check: setup
+	tools/wheel_check.sh
 
 test-slow: setup
 	$(VENV)/bin/pytest -q -m slow

@@ -41,8 +41,17 @@ from pydrake.multibody.tree import ModelInstanceIndex, RigidBody, SpatialInertia
 from tsad_drake.scenario import ObjectConfig, Scenario, ShelfConfig
 from tsad_drake.viewpoints import BACKGROUND_LABEL, shelf_prisms
 
-#: models/package.xml of this repository (package name `tsad_drake`)
-PACKAGE_XML = Path(__file__).resolve().parent.parent / "models" / "package.xml"
+
+def models_dir() -> Path:
+    """The robot models (`package.xml`, `urdf/`): `tsad_drake/models` in an installed wheel (the
+    wheel maps the repository's `models/` there), else `models/` beside the package in a checkout."""
+    package = Path(__file__).resolve().parent
+    installed = package / "models"
+    return installed if (installed / "package.xml").is_file() else package.parent / "models"
+
+
+#: models/package.xml (package name `tsad_drake`)
+PACKAGE_XML = models_dir() / "package.xml"
 UR5E_URL = "package://tsad_drake/urdf/ur5e/ur5e.urdf"
 GRIPPER_URL = "package://tsad_drake/urdf/gripper/gripper_2f85.urdf"
 
