@@ -5,15 +5,17 @@
 
 Runs closed-loop episodes (ray-cast observations, label segmentation, geometric model) of TSAD
 `full`, `paper`, and `full` without each extra of `tsad_config.EXTRAS` (that field at its paper
-value), on the same scenes (seeds `--seed-start` ..), and prints one markdown row per config:
-success, actions of the successful episodes, falls, median planning time per episode, and how
-often the extras were used. `--only NAME,...` restricts the leave-one-out rows to some extras.
+value), on the same scenes (seeds `--seed-start` ..; `--open-loop`: one plan per episode,
+executed whole), and prints one markdown row per config: success, actions of the successful
+episodes, falls, median planning time per episode, and how often the extras were used.
+`--only NAME,...` restricts the leave-one-out rows to some extras.
 """
 
 from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
+import dataclasses as dc
 import json
 import statistics
 import sys
@@ -27,11 +29,13 @@ from tsad_drake.scenes import generate_scenario
 LOOP_EXTRAS = ("lookahead", "reuse_plans")
 
 
-def configs(only: list[str]) -> dict[str, EpisodeSettings]:
+def configs(only: list[str], closed_loop: bool = True) -> dict[str, EpisodeSettings]:
     """The compared configurations by row label."""
-    out = {"full": EpisodeSettings(), "paper": EpisodeSettings(variant="paper")}
+    base = EpisodeSettings(closed_loop=closed_loop)
+    out = {"full": base, "paper": dc.replace(base, variant="paper")}
     for name in only or EXTRAS:
-        out[f"full - {name}"] = EpisodeSettings(planner_overrides=((name, PAPER[name]),))
+        if closed_loop or name not in LOOP_EXTRAS:
+            out[f"full - {name}"] = dc.replace(base, planner_overrides=((name, PAPER[name]),))
     return out
 
 
@@ -76,6 +80,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=10, help="episodes (seeds) per scenario")
     parser.add_argument("--seed-start", type=int, default=0, help="first seed")
     parser.add_argument("--only", default="", help="comma-separated extras (default: every one)")
+    parser.add_argument("--open-loop", action="store_true",
+                        help="one plan per episode, executed whole (cheaper; the loop extras drop out)")
     parser.add_argument("--workers", type=int, default=1, help="worker processes")
     parser.add_argument("--json", default="", help="write every episode's row here")
     args = parser.parse_args(argv)
@@ -85,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: unknown extras {unknown}" if unknown else
               "error: --episodes and --workers must be at least 1", file=sys.stderr)
         return 2
-    settings = configs(only)
+    settings = configs(only, closed_loop=not args.open_loop)
     jobs = [(label, s, seed, cfg) for label, cfg in settings.items()
             for s in args.scenarios.split(",")
             for seed in range(args.seed_start, args.seed_start + args.episodes)]
