@@ -66,3 +66,26 @@ def test_own_planner_runs_a_closed_loop_episode_without_falls():
     assert run.returncode == 0, run.stderr[-2000:]
     assert re.search(r"greedy on scenario 3 seed 1: success (True|False), \d+ actions, 0 falls",
                      run.stdout), run.stdout
+
+
+def test_plan_yaml_scene_plans_a_scene_written_by_tsad_scene(tmp_path):
+    from tests.planning.test_tsad import load_scene
+    from tsad_drake.scenario import save_scenario
+
+    save_scenario(load_scene("1", 1), tmp_path / "scene.yaml")
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "plan_yaml_scene.py"),
+                          str(tmp_path / "scene.yaml")], capture_output=True, text=True,
+                         timeout=600, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert re.search(r": target retrieved; \d+ actions: obj", run.stdout), run.stdout
+
+
+def test_sweep_parameter_changes_the_search_it_names():
+    example = _load("sweep_parameter")
+    from tests.planning.test_tsad import load_scene
+
+    rows = example.sweep("iterations", [20, 40], {0: load_scene("1", 0)}, "paper")
+    assert [r["value"] for r in rows] == [20, 40]
+    # the paper variant runs each sub-search for exactly the swept number of iterations
+    for r in rows:
+        assert r["sub_search_iterations"] and set(r["sub_search_iterations"]) == {r["value"]}

@@ -28,9 +28,10 @@ def test_importing_the_package_loads_neither_drake_nor_torch():
 def test_an_episode_through_the_public_api_retrieves_the_target():
     import math
 
+    from tests.planning.test_tsad import load_scene
     from tsad_drake.planning.types import Action
 
-    scenario = td.generate_scenario("1", 0)
+    scenario = load_scene("1", 0)  # generate_scenario("1", 0), frozen
     doc = td.plan_episode(scenario, 0, td.EpisodeSettings(planner="tsad", variant="paper"))
     assert doc["success"] and doc["variant"] == "paper" and doc["actions"]
     # the recorded actions, replayed in a fresh world model, free the target without a fall
