@@ -1,4 +1,4 @@
-"""What each of TSAD's extras buys: the `full` variant with one extra switched to its paper value.
+"""What each of TSAD's extras buys: `full` without one extra, or `paper` with one (`--add`).
 
     python -m tsad_drake.bench.studies.extras --scenarios 1,2,3 --episodes 10 --workers 2 \
         --json results/extras.json
@@ -22,20 +22,31 @@ import sys
 from pathlib import Path
 
 from tsad_drake.pipeline import EpisodeSettings, run_settings
-from tsad_drake.planning.tsad_config import EXTRAS, PAPER
+from tsad_drake.planning.tsad_config import EXTRAS, PAPER, TSADConfig
 from tsad_drake.scenes import generate_scenario
 
 #: extras whose paper value changes only the closed loop's behaviour between rounds
 LOOP_EXTRAS = ("lookahead", "reuse_plans")
 
 
-def configs(only: list[str], closed_loop: bool = True) -> dict[str, EpisodeSettings]:
-    """The compared configurations by row label."""
-    base = EpisodeSettings(closed_loop=closed_loop)
+def configs(only: list[str], closed_loop: bool = True, add: bool = False,
+            time_budget_s: float = 600.0) -> dict[str, EpisodeSettings]:
+    """The compared configurations by row label: `full`, `paper`, and per extra either `full`
+    without it (at its paper value) or, with `add`, `paper` with it (at its full value).
+    Every row gets the same wall-clock cap, so the iteration budget ends the searches."""
+    cap = (("time_budget_s", time_budget_s),)
+    base = EpisodeSettings(closed_loop=closed_loop, planner_overrides=cap)
     out = {"full": base, "paper": dc.replace(base, variant="paper")}
+    full = TSADConfig()
     for name in only or EXTRAS:
-        if closed_loop or name not in LOOP_EXTRAS:
-            out[f"full - {name}"] = dc.replace(base, planner_overrides=((name, PAPER[name]),))
+        if not closed_loop and name in LOOP_EXTRAS:
+            continue
+        if add:
+            out[f"paper + {name}"] = dc.replace(
+                base, variant="paper", planner_overrides=cap + ((name, getattr(full, name)),))
+        else:
+            out[f"full - {name}"] = dc.replace(base,
+                                               planner_overrides=cap + ((name, PAPER[name]),))
     return out
 
 
@@ -82,6 +93,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", default="", help="comma-separated extras (default: every one)")
     parser.add_argument("--open-loop", action="store_true",
                         help="one plan per episode, executed whole (cheaper; the loop extras drop out)")
+    parser.add_argument("--add", action="store_true",
+                        help="rows `paper + extra` instead of `full - extra`")
+    parser.add_argument("--time-cap", type=float, default=600.0,
+                        help="s, wall-clock cap of one planning call (default 600: the "
+                             "iteration budget decides, not the machine's load)")
     parser.add_argument("--workers", type=int, default=1, help="worker processes")
     parser.add_argument("--json", default="", help="write every episode's row here")
     args = parser.parse_args(argv)
@@ -91,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: unknown extras {unknown}" if unknown else
               "error: --episodes and --workers must be at least 1", file=sys.stderr)
         return 2
-    settings = configs(only, closed_loop=not args.open_loop)
+    settings = configs(only, not args.open_loop, args.add, args.time_cap)
     jobs = [(label, s, seed, cfg) for label, cfg in settings.items()
             for s in args.scenarios.split(",")
             for seed in range(args.seed_start, args.seed_start + args.episodes)]
