@@ -38,7 +38,7 @@ def configs(only: list[str], closed_loop: bool = True, add: bool = False,
     base = EpisodeSettings(closed_loop=closed_loop, planner_overrides=cap)
     out = {"full": base, "paper": dc.replace(base, variant="paper")}
     full = TSADConfig()
-    for name in only or EXTRAS:
+    for name in only:
         if not closed_loop and name in LOOP_EXTRAS:
             continue
         if add:
@@ -93,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", default="", help="comma-separated extras (default: every one)")
     parser.add_argument("--open-loop", action="store_true",
                         help="one plan per episode, executed whole (cheaper; the loop extras drop out)")
+    parser.add_argument("--variants-only", action="store_true",
+                        help="only the full and paper rows")
     parser.add_argument("--add", action="store_true",
                         help="rows `paper + extra` instead of `full - extra`")
     parser.add_argument("--time-cap", type=float, default=600.0,
@@ -101,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=1, help="worker processes")
     parser.add_argument("--json", default="", help="write every episode's row here")
     args = parser.parse_args(argv)
-    only = [n for n in args.only.split(",") if n]
+    only = [] if args.variants_only else [n for n in args.only.split(",") if n] or list(EXTRAS)
     unknown = sorted(set(only) - set(EXTRAS))
     if unknown or args.episodes < 1 or args.workers < 1:
         print(f"error: unknown extras {unknown}" if unknown else
