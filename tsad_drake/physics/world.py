@@ -221,6 +221,10 @@ class PhysicsWorld(World):
         return outcome
 
     # -- executing -----------------------------------------------------------------------------
+    def believe(self, scene: PerceivedScene | None) -> None:
+        """Set what the robot believes is there (`observe()` does; None: aim at the truth)."""
+        self._perceived = scene
+
     def believed_objects(self, picked: str) -> tuple[list[ObjectConfig], str]:
         """The objects the motion is planned against, and "perceived" or "true".
 
