@@ -142,4 +142,3 @@ def test_config_validation():
         PhysicsConfig(contact_model="soft")
     with pytest.raises(ValueError):
         PhysicsConfig(arm_kp=(1.0,))
-    assert PhysicsConfig(grip_force=40.0, squeeze=0.01).finger_kp == pytest.approx(4000.0)

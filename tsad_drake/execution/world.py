@@ -69,6 +69,7 @@ class ActionOutcome:
     tracking_error: float | None = None  #: rad, largest arm joint error against the command
     tracking_joint: str = ""  #: the joint where it occurred
     aimed_at: str = ""  #: "perceived" or "true": the object poses the motion was planned on
+    aim_error_mm: float | None = None  #: mm, believed centre of the picked object to the true one
     sim_seconds: float = 0.0  #: s, simulated time of the action (settling included)
     wall_seconds: float = 0.0  #: s, wall-clock time of the simulation (planning excluded)
     planning_seconds: float = 0.0  #: s, wall-clock time of its motion planning

@@ -4,7 +4,8 @@ The motion's segments hold motion-plant positions (six UR5e joints in rad, two f
 over the action's time line. The command keeps the arm joints and the left finger (the right one
 follows through the coupler constraint). While the object is held (from the start of the "close"
 segment to the end of the carry, the "open" segment excluded), the finger is commanded `squeeze`
-inside the planned closed opening, so that the PD actuator presses with about `grip_force`.
+inside the planned closed opening (ramped in over the "close" segment), so that the PD actuator
+saturates at its effort limit, the grip force.
 """
 
 from __future__ import annotations
@@ -33,10 +34,12 @@ def command_samples(motion: ActionMotion, squeeze: float) -> tuple[np.ndarray, n
     rows: list[np.ndarray] = []
     for segment in motion.segments:
         holding = segment.held is not None and segment.name != "open"
+        t0, t1 = segment.times[0], segment.times[-1]
         for t, q in zip(segment.times, segment.q, strict=True):
             if times and t <= times[-1] + 1e-9:
                 continue
-            finger = max(q[6] - (squeeze if holding else 0.0), 0.0)
+            ramp = (t - t0) / (t1 - t0) if segment.name == "close" and t1 > t0 else 1.0
+            finger = max(q[6] - (squeeze * ramp if holding else 0.0), 0.0)
             times.append(float(t))
             rows.append(np.concatenate([q[:6], [finger]]))
     t0 = motion.segments[0].times[0]

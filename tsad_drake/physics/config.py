@@ -3,7 +3,8 @@
 Gains are for the PD actuators the discrete SAP solver runs implicitly (`JointActuator.
 set_controller_gains`): arm gains in N m / rad and N m s / rad per UR5e joint (shoulder pan
 first), the finger gains in N / m and N s / m on the one finger actuator (the right finger follows
-through the URDF's coupler constraint).
+through the URDF's coupler constraint); that actuator's effort limit is the grip force, so a
+finger commanded well inside the object presses with exactly `grip_force`.
 """
 
 from __future__ import annotations
@@ -26,17 +27,26 @@ class PhysicsConfig:
     contact_model: str = "point"
     discrete_approximation: str = "lagged"  #: SAP approximation of the discrete contact problem
     hydroelastic_modulus: float = 5e6  #: Pa, objects' and pads' modulus when hydroelastic
+    #: point contact only: four small spheres on each pad's corners (proud of the pad face by
+    #: `stud_proud`), so that a pad touches a flat face at four points, not one, and a held box
+    #: cannot pivot about the line between the pads
+    pad_studs: bool = True
+    stud_radius: float = 0.002  #: m
+    stud_proud: float = 0.0005  #: m
     #: N m / rad, proportional gains of the six UR5e joints
     arm_kp: tuple[float, ...] = (6000.0, 6000.0, 4000.0, 800.0, 800.0, 500.0)
     #: N m s / rad, derivative gains of the six UR5e joints
     arm_kd: tuple[float, ...] = (300.0, 300.0, 200.0, 30.0, 30.0, 15.0)
     #: feed-forward gravity torques computed on a robot-only plant at the desired configuration
     gravity_compensation: bool = True
-    grip_force: float = 40.0  #: N, nominal squeeze of the closed fingers (2F-85: 20..235 N)
-    #: m, how far inside the planned closed opening each finger is commanded while holding; the
-    #: finger's proportional gain is grip_force / squeeze
-    squeeze: float = 0.01
-    finger_kd: float = 20.0  #: N s / m, finger derivative gain
+    #: N, the finger actuator's effort limit: the squeeze of the closed fingers (2F-85: 20..235 N)
+    grip_force: float = 40.0
+    #: m, how far inside the planned closed opening each finger is commanded while holding (ramped
+    #: in over the "close" segment); with `finger_kp` the actuator saturates at `grip_force` once
+    #: the error exceeds grip_force / finger_kp (2 mm)
+    squeeze: float = 0.02
+    finger_kp: float = 20000.0  #: N / m, finger proportional gain
+    finger_kd: float = 40.0  #: N s / m, finger derivative gain
     grasp_mode: str = "friction"  #: "friction": held by the fingers' friction alone
     object_friction: float = 0.6  #: static = dynamic friction coefficient of every geometry
     settle_s: float = 0.5  #: s, simulated after the trajectory ends, before the outcome is read
@@ -59,7 +69,3 @@ class PhysicsConfig:
         if self.time_step <= 0 or self.squeeze <= 0 or self.grip_force <= 0:
             raise ValueError("time_step, squeeze and grip_force must be positive")
 
-    @property
-    def finger_kp(self) -> float:
-        """N / m, finger proportional gain."""
-        return self.grip_force / self.squeeze

@@ -24,6 +24,7 @@ from pydrake.geometry import (
     ProximityProperties,
     RoleAssign,
     SceneGraph,
+    Sphere,
 )
 from pydrake.math import RigidTransform
 from pydrake.multibody.plant import (
@@ -149,9 +150,31 @@ def _set_gains(plant: MultibodyPlant, models: SceneModels, config: PhysicsConfig
             gains = PdControllerGains(p=config.arm_kp[k], d=config.arm_kd[k])
         elif actuator.model_instance() == models.gripper:
             gains = PdControllerGains(p=config.finger_kp, d=config.finger_kd)
+            actuator.set_effort_limit(config.grip_force)
         else:
             continue
         actuator.set_controller_gains(gains)
+
+
+#: m, stud centres on a pad in the finger frame: across the pad (x) and along it (z); the pad is
+#: 22 mm wide and spans z = 0.0225..0.060 above the palm face, its inner face at y = 0
+STUD_X = (-0.008, 0.008)
+STUD_Z = (0.026, 0.056)
+
+
+def _add_pad_studs(plant: MultibodyPlant, models: SceneModels, config: PhysicsConfig) -> None:
+    """Four contact spheres on each finger pad (see PhysicsConfig.pad_studs); before Finalize."""
+    friction = CoulombFriction(config.object_friction, config.object_friction)
+    for finger in ("left_finger", "right_finger"):
+        body = plant.GetBodyByName(finger, models.gripper)
+        for i, x in enumerate(STUD_X):
+            for j, z in enumerate(STUD_Z):
+                props = ProximityProperties()
+                AddContactMaterial(friction=friction, properties=props)
+                y = config.stud_radius - config.stud_proud
+                plant.RegisterCollisionGeometry(body, RigidTransform([x, y, z]),
+                                                Sphere(config.stud_radius),
+                                                f"{finger}_stud_{i}{j}", props)
 
 
 def _contact_properties(plant: MultibodyPlant, scene_graph: SceneGraph, models: SceneModels,
@@ -196,6 +219,8 @@ def build_sim(scenario: Scenario, q_robot: np.ndarray, config: PhysicsConfig | N
     for obj, body in zip(scenario.objects, models.object_bodies, strict=True):
         plant.SetDefaultFloatingBaseBodyPose(body, X_WS @ X_SO(obj))
     _set_gains(plant, models, config)
+    if config.pad_studs and config.contact_model == "point":
+        _add_pad_studs(plant, models, config)
     plant.Finalize()
     filter_robot_collisions(plant, scene_graph, models.robot, models.gripper)
     _contact_properties(plant, scene_graph, models, config)

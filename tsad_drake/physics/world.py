@@ -133,7 +133,9 @@ class PhysicsWorld(World):
         self.q_command = ready_q(scenario, scenario.objects, self.motion_config, self.X_WS)
         self.sim: SimParts = build_sim(scenario, self.q_command, self.config, self.station_config)
         self._station = None  # the rendering station, built on the first observe()
-        self._perceived: PerceivedScene | None = None
+        #: the objects as the robot believes them (from the last observation, moved by every
+        #: executed action as the plan moved them); None: aim at the truth
+        self._believed: list[ObjectConfig] | None = None
         self.outcomes: list[ActionOutcome] = []  #: every executed action's outcome, in order
         self.motions: list[ActionMotion] = []  #: the motion each action was planned as
         self._arm = [self.sim.plant.GetJointByName(n, self.sim.models.robot).position_start()
@@ -165,8 +167,9 @@ class PhysicsWorld(World):
         for body in station.object_bodies:
             X_WB = plant.EvalBodyPoseInWorld(context, self.sim.models.objects[body.name()])
             station.plant.SetFreeBodyPose(station.plant_context, body, X_WB)
-        self._perceived = observe(station, segmentation=self.segmentation).scene
-        return self._perceived
+        scene = observe(station, segmentation=self.segmentation).scene
+        self.believe(scene)
+        return scene
 
     def scenario(self) -> Scenario:
         """The true scene now: standing objects at their simulated planar poses; a fallen one
@@ -208,38 +211,46 @@ class PhysicsWorld(World):
             raise KeyError(f"no true object named {action.object!r}")
         self.num_actions += 1
         objects, aimed_at = self.believed_objects(action.object)
+        believed = next(o for o in objects if o.name == action.object)
+        true = self.poses()[action.object]
+        aim_error_mm = 1000.0 * math.hypot(believed.x - true.x, believed.y - true.y)
         motion = plan_action(self._start, objects, action, self.q_command, self.motion_config,
                              self.X_WS)
         self.motions.append(motion)
+        if aimed_at == "perceived" and motion.verified:
+            self._believed = motion.objects_after  # the robot believes it put the object there
         if not motion.verified:
             outcome = ActionOutcome(action.object, False, reason=f"no motion: {motion.failure}",
                                     aimed_at=aimed_at, planning_seconds=motion.planning_time_s)
         else:
             outcome = self._simulate(action, motion, aimed_at)
             self.q_command = motion.end_q
+        outcome.aim_error_mm = aim_error_mm
         self.outcomes.append(outcome)
         return outcome
 
     # -- executing -----------------------------------------------------------------------------
     def believe(self, scene: PerceivedScene | None) -> None:
-        """Set what the robot believes is there (`observe()` does; None: aim at the truth)."""
-        self._perceived = scene
+        """Set what the robot believes is there (`observe()` does; None: aim at the truth).
+
+        Every perceived object is kept under the true name it maps to (label segmentation: its
+        own), as an upright object with the fitted footprint; objects not seen are left out.
+        """
+        if scene is None:
+            self._believed = None
+            return
+        believed: dict[str, ObjectConfig] = {}
+        for p in scene.objects:
+            name = self.true_name(p.name, p.x, p.y)
+            if name not in believed:
+                believed[name] = believed_object(p, name)
+        self._believed = list(believed.values())
 
     def believed_objects(self, picked: str) -> tuple[list[ObjectConfig], str]:
-        """The objects the motion is planned against, and "perceived" or "true".
-
-        From the last observation, every perceived object under the true name it maps to (label
-        segmentation: its own); objects the robot has not seen are left out. The picked object
-        must have been seen, else (and before any observation) the true scene is used.
-        """
-        if self._perceived is not None:
-            believed: dict[str, ObjectConfig] = {}
-            for p in self._perceived.objects:
-                name = self.true_name(p.name, p.x, p.y)
-                if name not in believed:
-                    believed[name] = believed_object(p, name)
-            if picked in believed:
-                return list(believed.values()), "perceived"
+        """The objects the motion is planned against, and "perceived" or "true": the believed
+        ones when the picked object is among them, else (and before any observation) the truth."""
+        if self._believed is not None and picked in {o.name for o in self._believed}:
+            return copy.deepcopy(self._believed), "perceived"
         return self.scenario().objects, "true"
 
     def _simulate(self, action: Action, motion: ActionMotion, aimed_at: str) -> ActionOutcome:
