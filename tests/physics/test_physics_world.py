@@ -142,3 +142,13 @@ def test_config_validation():
         PhysicsConfig(contact_model="soft")
     with pytest.raises(ValueError):
         PhysicsConfig(arm_kp=(1.0,))
+
+
+def test_weak_gains_without_gravity_feed_forward_are_reported_as_untracked():
+    scenario = _scene([_cylinder("front", 0.08, 0.0), _cylinder("target", 0.25, 0.0, 0.13)],
+                      name="weak-arm")
+    config = PhysicsConfig(arm_kp=(300.0,) * 6, arm_kd=(30.0,) * 6, gravity_compensation=False)
+    world = PhysicsWorld(scenario, config)
+    outcome = world.execute(Action("front", 0.0, 0.08, 0.16, 0.0))
+    assert outcome.tracking_error > config.tracking_tolerance
+    assert "could not track" in outcome.reason and outcome.tracking_joint in outcome.reason
