@@ -152,3 +152,16 @@ def test_weak_gains_without_gravity_feed_forward_are_reported_as_untracked():
     outcome = world.execute(Action("front", 0.0, 0.08, 0.16, 0.0))
     assert outcome.tracking_error > config.tracking_tolerance
     assert "could not track" in outcome.reason and outcome.tracking_joint in outcome.reason
+
+
+def test_weld_grasp_switches_on_when_both_fingers_touch_and_holds_without_slip():
+    # a square box turned 32 degrees to the jaws: friction alone lets it turn in the grasp
+    box = ObjectConfig(name="box", kind="square_pillar", shape="box", size=[0.054, 0.054, 0.13],
+                       x=0.12, y=0.0, yaw=math.radians(32))
+    scenario = _scene([box, _cylinder("target", 0.26, 0.05, 0.13)], name="weld")
+    world = PhysicsWorld(scenario, PhysicsConfig(grasp_mode="weld"))
+    outcome = world.execute(Action("box", 0.0, 0.10, -0.12, 0.0))
+    assert outcome.welded and outcome.moved, outcome.reason
+    assert outcome.slip_mm < 0.5 and outcome.placement_error_mm < 3.0
+    assert outcome.placement_error_deg < 2.0
+    assert not world.sim.plant.GetConstraintActiveStatus(world.sim.plant_context, world.sim.weld)

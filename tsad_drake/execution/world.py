@@ -66,6 +66,7 @@ class ActionOutcome:
     slip_mm: float | None = None  #: mm, held object's motion in the tcp frame during transport
     slip_deg: float | None = None  #: deg, the same as a rotation
     lifted: bool | None = None  #: the object rose with the gripper after the grasp
+    welded: bool | None = None  #: weld grasp mode: both fingers touched and the weld held it
     tracking_error: float | None = None  #: rad, largest arm joint error against the command
     tracking_joint: str = ""  #: the joint where it occurred
     aimed_at: str = ""  #: "perceived" or "true": the object poses the motion was planned on

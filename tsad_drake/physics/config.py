@@ -14,7 +14,7 @@ import dataclasses as dc
 #: contact models a PhysicsConfig may name
 CONTACT_MODELS = ("point", "hydroelastic")
 #: how a grasped object is held in transport
-GRASP_MODES = ("friction",)
+GRASP_MODES = ("friction", "weld")
 
 
 @dc.dataclass
@@ -47,7 +47,10 @@ class PhysicsConfig:
     squeeze: float = 0.02
     finger_kp: float = 20000.0  #: N / m, finger proportional gain
     finger_kd: float = 40.0  #: N s / m, finger derivative gain
-    grasp_mode: str = "friction"  #: "friction": held by the fingers' friction alone
+    #: "friction": held by the fingers' friction alone; "weld": once both fingers touch the object
+    #: at the end of the close, a weld constraint holds it where it is in the gripper until the
+    #: fingers open (the fingers keep squeezing)
+    grasp_mode: str = "friction"
     object_friction: float = 0.6  #: static = dynamic friction coefficient of every geometry
     settle_s: float = 0.5  #: s, simulated after the trajectory ends, before the outcome is read
     monitor_step: float = 0.02  #: s, how often tracking and the held object are sampled

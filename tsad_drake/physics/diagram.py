@@ -130,6 +130,7 @@ class SimParts:
     player: CommandPlayer
     simulator: Simulator
     X_WS: RigidTransform
+    weld: object | None = None  #: MultibodyConstraintId of the grasp weld, when built with one
 
     @property
     def context(self):
@@ -202,10 +203,16 @@ def _contact_properties(plant: MultibodyPlant, scene_graph: SceneGraph, models: 
 
 
 def build_sim(scenario: Scenario, q_robot: np.ndarray, config: PhysicsConfig | None = None,
-              station: StationConfig | None = None) -> SimParts:
+              station: StationConfig | None = None,
+              weld: tuple[str, RigidTransform] | None = None) -> SimParts:
     """The simulation of `scenario` with the robot at `q_robot` (6 arm joints, rad, then the two
     finger joints, m): objects standing at their scenario poses, at rest, the player holding
     `q_robot`. The caller advances `simulator`.
+
+    `weld` = (object name, X_GO): a weld constraint holding that object at X_GO in the gripper's
+    base frame, active from the start (the grasp; `SetConstraintActiveStatus` releases it). Drake
+    fixes a weld's frames before Finalize, so a grasp with a measured X_GO is a new diagram that
+    continues from the old one's state (`continue_sim`).
     """
     config = config or PhysicsConfig()
     station = station or StationConfig()
@@ -221,6 +228,10 @@ def build_sim(scenario: Scenario, q_robot: np.ndarray, config: PhysicsConfig | N
     _set_gains(plant, models, config)
     if config.pad_studs and config.contact_model == "point":
         _add_pad_studs(plant, models, config)
+    weld_id = None
+    if weld is not None:
+        weld_id = plant.AddWeldConstraint(plant.GetBodyByName("gripper_base", models.gripper),
+                                          weld[1], models.objects[weld[0]], RigidTransform())
     plant.Finalize()
     filter_robot_collisions(plant, scene_graph, models.robot, models.gripper)
     _contact_properties(plant, scene_graph, models, config)
@@ -241,4 +252,37 @@ def build_sim(scenario: Scenario, q_robot: np.ndarray, config: PhysicsConfig | N
     diagram.set_name("tsad_physics")
     simulator = Simulator(diagram)
     simulator.Initialize()
-    return SimParts(diagram, plant, scene_graph, models, player, simulator, X_WS)
+    return SimParts(diagram, plant, scene_graph, models, player, simulator, X_WS, weld_id)
+
+
+def continue_sim(old: SimParts, scenario: Scenario, config: PhysicsConfig,
+                 station: StationConfig | None, weld: tuple[str, RigidTransform],
+                 command: PiecewisePolynomial) -> SimParts:
+    """A new simulation with `weld`, continuing `old` (same time, positions and velocities, the
+    player on `command`): the plant layouts are identical, so the state carries over unchanged."""
+    new = build_sim(scenario, np.zeros(8), config, station, weld)
+    new.player.set_trajectory(command)
+    context = new.context
+    context.SetTime(old.context.get_time())
+    new.plant.SetPositionsAndVelocities(
+        new.plant_context, old.plant.GetPositionsAndVelocities(old.plant_context))
+    new.simulator.Initialize()
+    return new
+
+
+def touching(plant: MultibodyPlant, plant_context, body_a, body_b) -> bool:
+    """Whether the contact results have a point pair or a hydroelastic surface between the two."""
+    results = plant.get_contact_results_output_port().Eval(plant_context)
+    wanted = {body_a.index(), body_b.index()}
+    for i in range(results.num_point_pair_contacts()):
+        info = results.point_pair_contact_info(i)
+        if {info.bodyA_index(), info.bodyB_index()} == wanted:
+            return True
+    for i in range(results.num_hydroelastic_contacts()):
+        surface = results.hydroelastic_contact_info(i).contact_surface()
+        inspector = plant.EvalSceneGraphInspector(plant_context)
+        bodies = {plant.GetBodyFromFrameId(inspector.GetFrameId(g)).index()
+                  for g in (surface.id_M(), surface.id_N())}
+        if bodies == wanted:
+            return True
+    return False

@@ -36,7 +36,7 @@ from tsad_drake.motion.verify import ActionMotion, plan_action, ready_q
 from tsad_drake.perception.types import PerceivedObject, PerceivedScene
 from tsad_drake.physics.command import make_command
 from tsad_drake.physics.config import PhysicsConfig
-from tsad_drake.physics.diagram import SimParts, build_sim
+from tsad_drake.physics.diagram import SimParts, build_sim, continue_sim, touching
 from tsad_drake.physics.outcome import (
     BodyPose,
     body_pose,
@@ -140,7 +140,6 @@ class PhysicsWorld(World):
         self.motions: list[ActionMotion] = []  #: the motion each action was planned as
         self._arm = [self.sim.plant.GetJointByName(n, self.sim.models.robot).position_start()
                      for n in UR5E_JOINTS]
-        self._tcp = self.sim.plant.GetFrameByName("tcp", self.sim.models.gripper)
 
     # -- reading the simulated state -----------------------------------------------------------
     def poses(self) -> dict[str, BodyPose]:
@@ -152,7 +151,7 @@ class PhysicsWorld(World):
 
     def _X_TO(self, name: str) -> RigidTransform:
         plant, context = self.sim.plant, self.sim.plant_context
-        X_WT = self._tcp.CalcPoseInWorld(context)
+        X_WT = plant.GetFrameByName("tcp", self.sim.models.gripper).CalcPoseInWorld(context)
         return X_WT.inverse() @ plant.EvalBodyPoseInWorld(context, self.sim.models.objects[name])
 
     # -- the World interface -------------------------------------------------------------------
@@ -255,11 +254,12 @@ class PhysicsWorld(World):
 
     def _simulate(self, action: Action, motion: ActionMotion, aimed_at: str) -> ActionOutcome:
         """Play the motion in the simulator and measure the outcome."""
-        config, sim = self.config, self.sim
+        config = self.config
         before = self.poses()
-        start = sim.context.get_time()
+        start = self.sim.context.get_time()
         command = make_command(motion, start, config.squeeze)
-        sim.player.set_trajectory(command.trajectory)
+        self.sim.player.set_trajectory(command.trajectory)
+        welded = None
         marks = {CLOSE_SEGMENT: command.segment_ends[CLOSE_SEGMENT],
                  LIFT_SEGMENT: command.segment_ends[LIFT_SEGMENT],
                  PLACE_SEGMENT: command.segment_ends[PLACE_SEGMENT]}
@@ -271,22 +271,42 @@ class PhysicsWorld(World):
         while t < end - 1e-9:
             pending = [m for m in marks.values() if m > t + 1e-9]
             t = min([t + config.monitor_step, end, *pending])
-            sim.simulator.AdvanceTo(t)
-            q = sim.plant.GetPositions(sim.plant_context)[self._arm]
-            error = np.abs(q - sim.player.desired(t)[:6])
+            self.sim.simulator.AdvanceTo(t)
+            q = self.sim.plant.GetPositions(self.sim.plant_context)[self._arm]
+            error = np.abs(q - self.sim.player.desired(t)[:6])
             if error.max() > worst:
                 worst, worst_joint = float(error.max()), UR5E_JOINTS[int(np.argmax(error))]
             for name, mark in marks.items():
                 if name not in seen and t >= mark - 1e-9:
                     seen[name] = (self._X_TO(action.object), self.poses()[action.object])
+                    if config.grasp_mode == "weld" and name == CLOSE_SEGMENT:
+                        welded = self._weld(action.object, command.trajectory)
+                    if welded and name == PLACE_SEGMENT:
+                        self.sim.plant.SetConstraintActiveStatus(self.sim.plant_context,
+                                                                 self.sim.weld, False)
         wall = time.perf_counter() - wall
         after = self.poses()
         outcome = ActionOutcome(action.object, False, tracking_error=worst,
                                 tracking_joint=worst_joint, aimed_at=aimed_at,
                                 sim_seconds=t - start, wall_seconds=wall,
-                                planning_seconds=motion.planning_time_s)
+                                planning_seconds=motion.planning_time_s, welded=welded)
         self._judge(action, before, after, seen, outcome)
         return outcome
+
+    def _weld(self, name: str, command) -> bool:
+        """Weld the object to the gripper where it is, if both fingers touch it (weld mode)."""
+        plant, context = self.sim.plant, self.sim.plant_context
+        gripper = self.sim.models.gripper
+        body = self.sim.models.objects[name]
+        if not all(touching(plant, context, plant.GetBodyByName(f, gripper), body)
+                   for f in ("left_finger", "right_finger")):
+            return False
+        base = plant.GetBodyByName("gripper_base", gripper)
+        X_GO = plant.EvalBodyPoseInWorld(context, base).inverse() @ plant.EvalBodyPoseInWorld(
+            context, body)
+        self.sim = continue_sim(self.sim, self._start, self.config, self.station_config,
+                                (name, X_GO), command)
+        return True
 
     def _judge(self, action: Action, before: dict[str, BodyPose], after: dict[str, BodyPose],
                seen: dict, outcome: ActionOutcome) -> None:
