@@ -150,8 +150,12 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
     row["world"] = settings.world
     if settings.world == "physics":
         from tsad_drake.bench.metrics import physics_figures
+        from tsad_drake.execution.episode import physics_record
+        from tsad_drake.physics.world import PhysicsWorld
 
         row["physics"] = physics_figures(row["actions"])
+        if isinstance(world, PhysicsWorld) and world.retrieval is not None:
+            row["physics"]["retrieval"] = physics_record(world.retrieval)
     row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
     first_stats = row["rounds"][0]["stats"] if row["rounds"] else {}
     if settings.planner == "optimal":

@@ -79,6 +79,15 @@ def test_second_action_aims_at_the_perceived_poses(placed):
     assert side.height == pytest.approx(0.16, abs=0.005)
 
 
+def test_retrieval_carries_the_target_out_of_the_shelf(placed):
+    world = placed[0]
+    assert world.retrieve() and world.success
+    outcome = world.retrieval
+    assert outcome.moved and outcome.lifted and outcome.fallen == []
+    assert world.poses()["target"].x < 0.0  # in the gripper, in front of the shelf
+    assert world.num_actions == 2 and world.outcome().success
+
+
 def test_unseen_object_in_the_approach_is_knocked_over_and_named():
     # the robot saw only `pick` and the target: its motion goes straight through `blocker`
     scenario = _scene([

@@ -53,6 +53,8 @@ from tsad_drake.station_models import UR5E_JOINTS
 #: segment after which the fingers hold the object, and the one after which it has been lifted
 CLOSE_SEGMENT = "close"
 LIFT_SEGMENT = "grasp->lift"
+#: the segment that ends with the object lifted out of the shelf (the end of a retrieval)
+RETREAT_SEGMENT = "lift->retreat"
 #: the segment that ends with the object at the place point, before the fingers open
 PLACE_SEGMENT = "place_above->place"
 
@@ -138,6 +140,7 @@ class PhysicsWorld(World):
         self._believed: list[ObjectConfig] | None = None
         self.outcomes: list[ActionOutcome] = []  #: every executed action's outcome, in order
         self.motions: list[ActionMotion] = []  #: the motion each action was planned as
+        self.retrieval: ActionOutcome | None = None  #: the simulated target retrieval, if any
         self._arm = [self.sim.plant.GetJointByName(n, self.sim.models.robot).position_start()
                      for n in UR5E_JOINTS]
 
@@ -192,16 +195,67 @@ class PhysicsWorld(World):
         return min(poses, key=lambda n: math.hypot(poses[n].x - x, poses[n].y - y))
 
     def retrievable(self) -> bool:
+        """The corridor rule on the simulated poses (a cheap check; `retrieve` simulates)."""
         return GeometricWorld(self.scenario()).retrievable()
 
     def retrieve(self) -> bool:
+        """Simulate taking the target out: approach, grasp, lift and retreat out of the shelf at
+        the first angle with a motion on the believed scene (the corridor rule's clear angle on
+        the believed scene first, then by |theta|). False, and no action counted, when no angle
+        has a motion; a simulated attempt counts one action and succeeds when the target leaves
+        the shelf in the gripper (`retrieval` holds its outcome)."""
         if self.done:
             return self.success
-        if not self.retrievable():
+        target = self._start.target
+        objects, aimed_at = self.believed_objects(target)
+        motion = self._retrieval_motion(objects, target)
+        if motion is None:
             return False
         self.num_actions += 1
-        self.success = True
-        return True
+        before = self.poses()
+        outcome = ActionOutcome(target, False, aimed_at=aimed_at,
+                                planning_seconds=motion.planning_time_s)
+        seen = self._play(target, motion, outcome)
+        after = self.poses()
+        fallen_before = len(self.fallen)
+        self._judge_neighbours(target, before, after, outcome)
+        pose = after[target]
+        lift = seen[LIFT_SEGMENT][1].z - before[target].z
+        outcome.lifted = lift >= self.config.lift_min
+        outcome.slip_mm, outcome.slip_deg = relative_slip(seen[CLOSE_SEGMENT][0],
+                                                          self._X_TO(target))
+        if pose.x >= 0.0 or pose.z - before[target].z < self.config.lift_min:
+            outcome.reason = (f"the target was not carried out of the shelf (it is at x = "
+                              f"{pose.x * 1000:.0f} mm, {(pose.z - before[target].z) * 1000:.0f}"
+                              f" mm above where it stood)")
+            if fall_reason(self._start.object(target), pose, self._start.shelf, self.config):
+                self._knock(target)
+            self.failure = self.failure or f"retrieval failed: {outcome.reason}"
+        else:
+            outcome.moved = True
+            self.success = True
+        outcome.fallen = self.fallen[fallen_before:]
+        self.q_command = motion.segments[-1].q[-1]
+        self.retrieval = outcome
+        return self.success
+
+    def _retrieval_motion(self, objects: list[ObjectConfig], target: str
+                          ) -> ActionMotion | None:
+        """The pick half (through the retreat) of a motion taking the target, or None."""
+        believed = next(o for o in objects if o.name == target)
+        scene = dc.replace(copy.deepcopy(self._start), objects=copy.deepcopy(objects))
+        clear = GeometricWorld(scene).retrieval_angle()
+        angles = sorted((float(a) for a in self._start.approach_angles), key=abs)
+        if clear is not None:
+            angles = [clear] + [a for a in angles if abs(a - clear) > 1e-9]
+        for theta in angles:
+            action = Action(target, theta, believed.x, believed.y, theta)
+            motion = plan_action(self._start, objects, action, self.q_command,
+                                 self.motion_config, self.X_WS)
+            if motion.verified:
+                names = [s.name for s in motion.segments]
+                return dc.replace(motion, segments=motion.segments[:names.index(RETREAT_SEGMENT) + 1])
+        return None
 
     def execute(self, action: Action) -> ActionOutcome:
         if self.done:
@@ -254,15 +308,24 @@ class PhysicsWorld(World):
 
     def _simulate(self, action: Action, motion: ActionMotion, aimed_at: str) -> ActionOutcome:
         """Play the motion in the simulator and measure the outcome."""
-        config = self.config
         before = self.poses()
+        outcome = ActionOutcome(action.object, False, aimed_at=aimed_at,
+                                planning_seconds=motion.planning_time_s)
+        seen = self._play(action.object, motion, outcome)
+        self._judge(action, before, self.poses(), seen, outcome)
+        return outcome
+
+    def _play(self, name: str, motion: ActionMotion, outcome: ActionOutcome
+              ) -> dict[str, tuple[RigidTransform, BodyPose]]:
+        """Play `motion` (holding object `name`), then settle; fills the outcome's tracking,
+        weld and timing fields; returns the held object's pose in the tcp frame and its pose at
+        the end of each marked segment the motion has."""
+        config = self.config
         start = self.sim.context.get_time()
         command = make_command(motion, start, config.squeeze)
         self.sim.player.set_trajectory(command.trajectory)
-        welded = None
-        marks = {CLOSE_SEGMENT: command.segment_ends[CLOSE_SEGMENT],
-                 LIFT_SEGMENT: command.segment_ends[LIFT_SEGMENT],
-                 PLACE_SEGMENT: command.segment_ends[PLACE_SEGMENT]}
+        marks = {s: command.segment_ends[s] for s in (CLOSE_SEGMENT, LIFT_SEGMENT, PLACE_SEGMENT)
+                 if s in command.segment_ends}
         seen: dict[str, tuple[RigidTransform, BodyPose]] = {}
         worst, worst_joint = 0.0, ""
         end = command.end + config.settle_s
@@ -276,22 +339,18 @@ class PhysicsWorld(World):
             error = np.abs(q - self.sim.player.desired(t)[:6])
             if error.max() > worst:
                 worst, worst_joint = float(error.max()), UR5E_JOINTS[int(np.argmax(error))]
-            for name, mark in marks.items():
-                if name not in seen and t >= mark - 1e-9:
-                    seen[name] = (self._X_TO(action.object), self.poses()[action.object])
-                    if config.grasp_mode == "weld" and name == CLOSE_SEGMENT:
-                        welded = self._weld(action.object, command.trajectory)
-                    if welded and name == PLACE_SEGMENT:
+            for mark_name, mark in marks.items():
+                if mark_name not in seen and t >= mark - 1e-9:
+                    seen[mark_name] = (self._X_TO(name), self.poses()[name])
+                    if config.grasp_mode == "weld" and mark_name == CLOSE_SEGMENT:
+                        outcome.welded = self._weld(name, command.trajectory)
+                    if outcome.welded and mark_name == PLACE_SEGMENT:
                         self.sim.plant.SetConstraintActiveStatus(self.sim.plant_context,
                                                                  self.sim.weld, False)
-        wall = time.perf_counter() - wall
-        after = self.poses()
-        outcome = ActionOutcome(action.object, False, tracking_error=worst,
-                                tracking_joint=worst_joint, aimed_at=aimed_at,
-                                sim_seconds=t - start, wall_seconds=wall,
-                                planning_seconds=motion.planning_time_s, welded=welded)
-        self._judge(action, before, after, seen, outcome)
-        return outcome
+        outcome.wall_seconds = time.perf_counter() - wall
+        outcome.sim_seconds = t - start
+        outcome.tracking_error, outcome.tracking_joint = worst, worst_joint
+        return seen
 
     def _weld(self, name: str, command) -> bool:
         """Weld the object to the gripper where it is, if both fingers touch it (weld mode)."""
@@ -308,18 +367,23 @@ class PhysicsWorld(World):
                                 (name, X_GO), command)
         return True
 
+    def _judge_neighbours(self, picked: str, before: dict[str, BodyPose],
+                          after: dict[str, BodyPose], outcome: ActionOutcome) -> None:
+        """Knock over the non-picked objects that fell; list the disturbed ones in `outcome`."""
+        for obj in self._start.objects:
+            if obj.name == picked or obj.name in self.fallen:
+                continue
+            if fall_reason(obj, after[obj.name], self._start.shelf, self.config):
+                self._knock(obj.name)
+            elif displacement(before[obj.name], after[obj.name]) > self.config.disturb_m:
+                outcome.disturbed.append(obj.name)
+
     def _judge(self, action: Action, before: dict[str, BodyPose], after: dict[str, BodyPose],
                seen: dict, outcome: ActionOutcome) -> None:
         """Fill `outcome` from the poses before and after, and the marks seen in transport."""
         config, shelf = self.config, self._start.shelf
         fallen_before = len(self.fallen)
-        for obj in self._start.objects:
-            if obj.name == action.object or obj.name in self.fallen:
-                continue
-            if fall_reason(obj, after[obj.name], shelf, config):
-                self._knock(obj.name)
-            elif displacement(before[obj.name], after[obj.name]) > config.disturb_m:
-                outcome.disturbed.append(obj.name)
+        self._judge_neighbours(action.object, before, after, outcome)
         obj = self._start.object(action.object)
         pose = after[obj.name]
         lift = seen[LIFT_SEGMENT][1].z - before[obj.name].z
