@@ -133,7 +133,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="the poses the physics world plans its motions on (default true)")
     p.add_argument("--out", default="results/physics_agreement.json")
     args = p.parse_args(argv)
-    episodes = []
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    episodes: list[dict] = []
+    document: dict = {}
     for name in args.scenarios:
         for seed in args.seeds:
             scenario = generate_scenario(name, seed)
@@ -145,11 +148,10 @@ def main(argv: list[str] | None = None) -> int:
             bad = sum(bool(r["disagreements"]) for r in records)
             print(f"scenario {name} seed {seed}: {len(records)} actions, {bad} with "
                   f"disagreements ({time.perf_counter() - t0:.0f} s)", file=sys.stderr)
-    document = {"settings": vars(args), "summary": summarise(episodes), "episodes": episodes}
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(document, indent=1))
-    print(json.dumps(document["summary"], indent=1))
+            document = {"settings": vars(args), "summary": summarise(episodes),
+                        "episodes": episodes}
+            out.write_text(json.dumps(document, indent=1))  # after every episode
+    print(json.dumps(document.get("summary", {}), indent=1))
     return 0
 
 
