@@ -2,11 +2,13 @@
 
 Each `execute(action)`:
   1. plans the action's motion (`motion.verify.plan_action`) against the objects as the robot
-     believes them: the last observation's estimated centres, headings, footprints and heights
-     (`aimed_at` = "perceived"); before any observation, against the true poses ("true");
+     believes them: the last observation's estimated centres, headings, footprints and heights,
+     moved by the actions executed since (`aimed_at` = "perceived"); before any observation,
+     against the true poses ("true"). No motion: a wasted action, nothing simulated;
   2. plays that motion through the PD-controlled joints of the simulated station (diagram.py),
      from the configuration where the previous action's command ended; the fingers close on
-     the object and hold it by friction alone;
+     the object and hold it by friction (or, `grasp_mode="weld"`, by a weld switched on once both
+     fingers touch it);
   3. lets the scene settle `settle_s` and measures what physics left (outcome.py): which objects
      fell (tilt beyond `fall_tilt_deg` or off the shelf floor), which were disturbed (moved more
      than `disturb_m`), the moved object's placement error, grasp slip, whether it was lifted, and
@@ -15,9 +17,9 @@ Each `execute(action)`:
 `observe()` renders the station's wrist camera (station.py) with every object at its simulated
 pose (toppled ones lying), and runs the perception pipeline. The arm is shown at the observation
 poses in the renderer's own context; the simulated arm stays where the last action left it.
-`retrieve()` takes the target out when the 2-D corridor rule of the geometric world, applied to
-the simulated poses (a lying object by its projected footprint), finds a clear angle: the final
-retrieval is judged, not simulated.
+`retrieve()` simulates the pick half of a motion on the target (approach, grasp, lift, retreat
+out of the shelf); `retrievable()` is the 2-D corridor rule on the simulated poses (a lying object
+by its projected footprint), a cheap check the episode reports.
 """
 
 from __future__ import annotations
