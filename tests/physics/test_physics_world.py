@@ -174,3 +174,13 @@ def test_weld_grasp_switches_on_when_both_fingers_touch_and_holds_without_slip()
     assert outcome.slip_mm < 0.5 and outcome.placement_error_mm < 3.0
     assert outcome.placement_error_deg < 2.0
     assert not world.sim.plant.GetConstraintActiveStatus(world.sim.plant_context, world.sim.weld)
+
+
+@pytest.mark.slow
+def test_hydroelastic_pick_and_place():
+    scenario = _scene([_cylinder("front", 0.08, 0.0), _cylinder("target", 0.25, 0.0, 0.13)],
+                      name="hydro")
+    world = PhysicsWorld(scenario, PhysicsConfig(contact_model="hydroelastic"))
+    outcome = world.execute(Action("front", 0.0, 0.08, 0.16, 0.0))
+    assert outcome.moved and outcome.placement_error_mm < 5.0 and outcome.slip_mm < 3.0
+    assert outcome.fallen == [] and outcome.disturbed == []
