@@ -34,7 +34,13 @@ from pydrake.math import RigidTransform
 
 from tsad_drake.execution.world import ActionOutcome, GeometricWorld, World
 from tsad_drake.motion.scene import MotionConfig
-from tsad_drake.motion.verify import ActionMotion, plan_action, ready_q
+from tsad_drake.motion.verify import (
+    ActionMotion,
+    MotionFailure,
+    plan_action,
+    ready_q,
+    transfer_segment,
+)
 from tsad_drake.perception.types import PerceivedObject, PerceivedScene
 from tsad_drake.physics.command import make_command
 from tsad_drake.physics.config import PhysicsConfig
@@ -134,7 +140,8 @@ class PhysicsWorld(World):
         self._start = copy.deepcopy(scenario)
         self.X_WS = self.station_config.X_WS(scenario.shelf.floor_height)
         #: motion-plant positions (6 arm joints, 2 fingers) where the next command starts
-        self.q_command = ready_q(scenario, scenario.objects, self.motion_config, self.X_WS)
+        self.ready = ready_q(scenario, scenario.objects, self.motion_config, self.X_WS)
+        self.q_command = self.ready.copy()
         self.sim: SimParts = build_sim(scenario, self.q_command, self.config, self.station_config)
         self._station = None  # the rendering station, built on the first observe()
         #: the objects as the robot believes them (from the last observation, moved by every
@@ -269,8 +276,7 @@ class PhysicsWorld(World):
         believed = next(o for o in objects if o.name == action.object)
         true = self.poses()[action.object]
         aim_error_mm = 1000.0 * math.hypot(believed.x - true.x, believed.y - true.y)
-        motion = plan_action(self._start, objects, action, self.q_command, self.motion_config,
-                             self.X_WS)
+        motion = self._plan(objects, action)
         self.motions.append(motion)
         if aimed_at == "perceived" and motion.verified:
             self._believed = motion.objects_after  # the robot believes it put the object there
@@ -307,6 +313,29 @@ class PhysicsWorld(World):
         if self._believed is not None and picked in {o.name for o in self._believed}:
             return copy.deepcopy(self._believed), "perceived"
         return self.scenario().objects, "true"
+
+    def _plan(self, objects: list[ObjectConfig], action: Action) -> ActionMotion:
+        """The action's motion from where the arm is; when none is found from there, a move back
+        to the ready configuration followed by the motion from ready (where the episode's motion
+        check plans from)."""
+        motion = plan_action(self._start, objects, action, self.q_command, self.motion_config,
+                             self.X_WS)
+        if motion.verified or np.allclose(self.q_command, self.ready):
+            return motion
+        from_ready = plan_action(self._start, objects, action, self.ready, self.motion_config,
+                                 self.X_WS)
+        if not from_ready.verified:
+            return motion
+        try:
+            home = transfer_segment(self._start, objects, self.q_command, self.ready,
+                                    "return->ready", self.motion_config, self.X_WS)
+        except MotionFailure:
+            return motion
+        for segment in from_ready.segments:
+            segment.times = segment.times + home.times[-1]
+        from_ready.segments.insert(0, home)
+        from_ready.planning_time_s += motion.planning_time_s
+        return from_ready
 
     def _simulate(self, action: Action, motion: ActionMotion, aimed_at: str) -> ActionOutcome:
         """Play the motion in the simulator and measure the outcome."""

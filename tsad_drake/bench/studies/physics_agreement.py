@@ -1,7 +1,8 @@
 """Agreement study: do the 2-D corridor rule and Drake physics agree on what an action did?
 
 Per scenario and seed: TSAD plans a closed-loop episode in the geometric world (ray-cast
-observer, `--feasibility` model); its executed actions (true object names) are then executed
+observer, `--feasibility` model, every action motion-checked as `--motion` does); its executed
+actions (true object names) are then executed
 again, in order and open loop, in a fresh GeometricWorld and in a fresh PhysicsWorld, and each
 action's verdicts are compared: the object moved or not, which objects fell, which were disturbed
 (physics only; the rule has no such notion). With `--aim perceived` the physics world observes
@@ -13,6 +14,8 @@ Every disagreement is classified:
                                 (sub-label: "disturbed" when physics moved it > 1 cm)
   physics-fall-rule-missed      physics knocks an object over, the rule does not
   moved-rule-only               the rule moves the object, physics does not (reason recorded)
+  no-motion                     the physics world found no motion for the action (planned
+                                from where its arm is, on what it believes), so nothing ran
   moved-physics-only            physics moves it, the rule does not
   disturbed-only                same falls and moves, but physics disturbed a neighbour
 After the first disagreement on falls or moves the two worlds hold different scenes; later
@@ -41,7 +44,8 @@ from tsad_drake.scenes import generate_scenario
 
 def planned_actions(scenario: Scenario, seed: int, feasibility: str) -> list[Action]:
     """The actions TSAD executes in a closed-loop geometric episode (true object names)."""
-    row = run_settings(scenario, seed, EpisodeSettings(planner="tsad", feasibility=feasibility))
+    row = run_settings(scenario, seed, EpisodeSettings(planner="tsad", feasibility=feasibility,
+                                                       motion=True))
     return [Action(a["true_object"], math.radians(a["theta_pick_deg"]), a["place_xy"][0],
                    a["place_xy"][1], math.radians(a["theta_place_deg"]))
             for a in row["actions"]]
@@ -56,7 +60,7 @@ def classify(rule: ActionOutcome, physics: ActionOutcome) -> list[str]:
     classes += [f"physics-fall-rule-missed:{n}" for n in sorted(set(physics.fallen)
                                                                  - set(rule.fallen))]
     if rule.moved and not physics.moved:
-        classes.append("moved-rule-only")
+        classes.append("no-motion" if physics.sim_seconds == 0 else "moved-rule-only")
     if physics.moved and not rule.moved:
         classes.append("moved-physics-only")
     if not classes and physics.disturbed:
