@@ -52,8 +52,10 @@ def test_agreement_classes():
     rule = ActionOutcome("a", True, fallen=["b"])
     assert classify(rule, ActionOutcome("a", True, disturbed=["b"])) == [
         "rule-fall-physics-stands:disturbed:b"]
-    assert classify(ActionOutcome("a", True), ActionOutcome("a", False, fallen=["c"])) == [
+    assert classify(ActionOutcome("a", True),
+                    ActionOutcome("a", False, fallen=["c"], sim_seconds=3.0)) == [
         "physics-fall-rule-missed:c", "moved-rule-only"]
+    assert classify(ActionOutcome("a", True), ActionOutcome("a", False)) == ["no-motion"]
     assert classify(ActionOutcome("a", True), ActionOutcome("a", True, disturbed=["d"])) == [
         "disturbed-only:d"]
     assert classify(ActionOutcome("a", True), ActionOutcome("a", True)) == []
