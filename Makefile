@@ -34,10 +34,12 @@ setup: system-deps $(STAMP)
 
 # The main job: scenario 1 seed 0 rendered in the Drake station, perceived, planned by TSAD,
 # every pick-and-place turned into a verified UR5e motion, and a Meshcat replay written.
+# WORLD=physics executes every action as a Drake contact simulation instead of the 2-D rule.
 DEMO_FEASIBILITY ?= geometric
+WORLD ?= geometric
 demo: setup
 	$(VENV)/bin/tsad plan --scenario 1 --seed 0 --planner tsad --feasibility $(DEMO_FEASIBILITY) \
-	  --observer drake --motion --out out/demo
+	  --observer drake --motion --world $(WORLD) --out out/demo
 
 test: setup
 	$(VENV)/bin/pytest -q

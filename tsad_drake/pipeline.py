@@ -11,7 +11,7 @@ import dataclasses as dc
 from typing import Any
 
 from tsad_drake.execution.episode import EpisodeLimits, run_episode
-from tsad_drake.execution.world import GeometricWorld, Observer
+from tsad_drake.execution.world import GeometricWorld, Observer, World
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.feasibility import GeometricFeasibility, OracleFeasibility
 from tsad_drake.planning.interface import FeasibilityModel
@@ -52,6 +52,9 @@ class EpisodeSettings:
     max_actions: int = 12  #: pick-and-places allowed in the episode, random ones included
     segmentation: str = "label"
     motion: bool = False  #: verify each action at the motion level before executing it
+    #: geometric (the 2-D corridor rule judges) | physics (every action a Drake contact
+    #: simulation; implies the motion level and the Drake observer on the simulated state)
+    world: str = "geometric"
 
 
 class RaycastObserver:
@@ -91,6 +94,29 @@ def make_observer(name: str, scenario: Scenario, segmentation: str = "label") ->
     raise ValueError(f"unknown observer {name!r}: use raycast or drake")
 
 
+#: the worlds an episode can act on (`--world`)
+WORLD_NAMES = ("geometric", "physics")
+
+
+def physics_settings(settings: EpisodeSettings) -> EpisodeSettings:
+    """The settings a physics episode runs with: motion level on, Drake observer."""
+    if settings.world not in WORLD_NAMES:
+        raise ValueError(f"unknown world {settings.world!r}: use one of {', '.join(WORLD_NAMES)}")
+    if settings.world != "physics":
+        return settings
+    return dc.replace(settings, motion=True, observer="drake")
+
+
+def make_world(settings: EpisodeSettings, scenario: Scenario) -> World:
+    """The world an episode acts on: geometric (with the settings' observer) or physics."""
+    if settings.world == "physics":
+        from tsad_drake.physics.world import PhysicsWorld
+
+        return PhysicsWorld(scenario, segmentation=settings.segmentation)
+    return GeometricWorld(scenario, make_observer(settings.observer, scenario,
+                                                  settings.segmentation))
+
+
 def initial_rearrangement_set_size(scenario: Scenario) -> int:
     """|R_theta*| on the true scene at the start, theta* = the angle with the fewest blockers."""
     from tsad_drake.scenario_generator import target_blockers
@@ -102,8 +128,8 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
     """Run one episode and return its JSON row (plan.json fields plus difficulty figures)."""
     config = make_config(settings.planner, settings.ablation, settings.variant,
                          **dict(settings.planner_overrides))
-    world = GeometricWorld(scenario, make_observer(settings.observer, scenario,
-                                                  settings.segmentation))
+    settings = physics_settings(settings)
+    world = make_world(settings, scenario)
     action_check = None
     if settings.motion:
         from tsad_drake.motion.verify import is_pick_failure, motion_check
@@ -127,6 +153,15 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
     row["ablation"] = settings.ablation
     row["variant"] = settings.variant
     row["observer"] = settings.observer
+    row["world"] = settings.world
+    if settings.world == "physics":
+        from tsad_drake.bench.metrics import physics_figures
+        from tsad_drake.execution.episode import physics_record
+        from tsad_drake.physics.world import PhysicsWorld
+
+        row["physics"] = physics_figures(row["actions"])
+        if isinstance(world, PhysicsWorld) and world.retrieval is not None:
+            row["physics"]["retrieval"] = physics_record(world.retrieval)
     row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
     first_stats = row["rounds"][0]["stats"] if row["rounds"] else {}
     if settings.planner == "optimal":
@@ -143,6 +178,7 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
     Meshcat recording) and `scene.dmd.yaml` (Drake model directives of the scene).
     """
     row = run_settings(scenario, seed, settings)
+    settings = physics_settings(settings)
     if settings.motion:
         from tsad_drake.motion.export import (
             actions_from_records,

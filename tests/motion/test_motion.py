@@ -17,7 +17,7 @@ from tsad_drake.motion.export import (
 from tsad_drake.motion.keyframes import keyframe_targets, pose_errors
 from tsad_drake.motion.replay import replay_collisions, write_replay_html
 from tsad_drake.motion.scene import Held, MotionConfig, MotionModel
-from tsad_drake.motion.verify import motion_check, verify_plan
+from tsad_drake.motion.verify import motion_check, ready_q, transfer_segment, verify_plan
 from tsad_drake.planning.types import Action
 from tsad_drake.station import StationConfig
 from tsad_drake.station_models import PACKAGE_XML, X_SO
@@ -137,3 +137,12 @@ def test_replay_html_is_self_contained(scene, motions, tmp_path):
     text = path.read_text()
     assert path.stat().st_size > 100_000
     assert "<html" in text.lower() and "http://" not in text.split("<script")[0]
+
+
+def test_transfer_segment_returns_to_ready(scene, motions):
+    """The physics world's way back to the ready configuration after an action."""
+    end = motions[0].end_q
+    ready = ready_q(scene, motions[0].objects_after)
+    segment = transfer_segment(scene, motions[0].objects_after, end, ready, "return->ready")
+    assert segment.times[0] == 0.0 and segment.name == "return->ready"
+    assert np.allclose(segment.q[0], end) and np.allclose(segment.q[-1], ready)

@@ -61,7 +61,49 @@ def summarise(rows: list[dict]) -> dict:
             reason = str(r.get("failure_reason") or "unknown").split(":")[0]
             reasons[reason] = reasons.get(reason, 0) + 1
     summary["failure_reasons"] = reasons
+    summary.update(_physics_summary(rows))
     return summary
+
+
+def physics_figures(actions: list[dict]) -> dict:
+    """One episode's physics figures from its action records (those with a "physics" entry)."""
+    measured = [a["physics"] for a in actions if "physics" in a]
+    simulated = [m for m in measured if m["sim_seconds"] > 0]
+    sim = sum(m["sim_seconds"] for m in simulated)
+    wall = sum(m["wall_seconds"] for m in simulated)
+    return {
+        "actions": len(measured),
+        "simulated": len(simulated),
+        "moved": sum(m["moved"] for m in measured),
+        "disturbed": sum(len(m["disturbed"]) for m in measured),
+        "placement_error_mm": _mean([m["placement_error_mm"] for m in simulated if m["moved"]]),
+        "slip_mm": _mean([m["slip_mm"] for m in simulated if m["lifted"]]),
+        "tracking_error_max_rad": max((m["tracking_error"] for m in simulated), default=None),
+        "sim_seconds_per_action": sim / len(simulated) if simulated else None,
+        "real_time_factor": sim / wall if wall else None,
+    }
+
+
+def _physics_summary(rows: list[dict]) -> dict:
+    figures = [r["physics"] for r in rows if isinstance(r.get("physics"), dict)]
+    if not figures:
+        return {}
+
+    def weighted(key: str, weight: str) -> float | None:
+        pairs = [(f[key], f[weight]) for f in figures if f[key] is not None and f[weight]]
+        total = sum(w for _, w in pairs)
+        return sum(v * w for v, w in pairs) / total if total else None
+
+    sim = sum((f["sim_seconds_per_action"] or 0.0) * f["simulated"] for f in figures)
+    wall = sum((f["sim_seconds_per_action"] or 0.0) * f["simulated"] / f["real_time_factor"]
+               for f in figures if f["real_time_factor"])
+    return {"physics_disturbed_all": _mean([f["disturbed"] for f in figures]),
+            "physics_moved_share": (sum(f["moved"] for f in figures)
+                                    / max(sum(f["actions"] for f in figures), 1)),
+            "physics_placement_error_mm": weighted("placement_error_mm", "moved"),
+            "physics_slip_mm": weighted("slip_mm", "simulated"),
+            "physics_sim_seconds_per_action": weighted("sim_seconds_per_action", "simulated"),
+            "physics_real_time_factor": sim / wall if wall else None}
 
 
 def _fmt(value: float | None, digits: int = 2) -> str:
@@ -90,5 +132,15 @@ def paper_table(columns: dict[str, dict]) -> str:
     if any("network_queries_per_s" in s for s in columns.values()):
         row("Network queries per episode", lambda s: _fmt(s.get("network_evaluations_mean"), 0))
         row("Network queries per second", lambda s: _fmt(s.get("network_queries_per_s"), 0))
+    if any("physics_moved_share" in s for s in columns.values()):
+        row("Physics: disturbed objects per episode",
+            lambda s: _fmt(s.get("physics_disturbed_all")))
+        row("Physics: share of actions that moved their object",
+            lambda s: _fmt(s.get("physics_moved_share")))
+        row("Physics: placement error [mm]", lambda s: _fmt(s.get("physics_placement_error_mm"), 1))
+        row("Physics: grasp slip [mm]", lambda s: _fmt(s.get("physics_slip_mm"), 1))
+        row("Physics: sim seconds per action",
+            lambda s: _fmt(s.get("physics_sim_seconds_per_action")))
+        row("Physics: real-time factor", lambda s: _fmt(s.get("physics_real_time_factor")))
     row("Episodes", lambda s: str(s["episodes"]))
     return "\n".join(lines)

@@ -27,7 +27,7 @@ from tsad_drake.scenes import generate_scenario
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
-             "closed_loop", "motion")
+             "closed_loop", "motion", "world")
 
 
 @dc.dataclass(frozen=True)
@@ -43,6 +43,7 @@ class EpisodeSpec:
     occluded: bool = False
     closed_loop: bool = True
     motion: bool = False  #: verify each action at the motion level before executing it
+    world: str = "geometric"  #: geometric | physics (Drake contact simulation of every action)
 
     def key(self) -> tuple:
         return tuple(getattr(self, k) for k in SPEC_KEYS)
@@ -53,7 +54,8 @@ def run_named_episode(spec: EpisodeSpec) -> dict:
     scenario = spec_scenario(spec)
     settings = EpisodeSettings(planner=spec.planner, feasibility=spec.feasibility,
                                ablation=spec.ablation, observer=spec.observer,
-                               closed_loop=spec.closed_loop, motion=spec.motion)
+                               closed_loop=spec.closed_loop, motion=spec.motion,
+                               world=spec.world)
     row = run_settings(scenario, spec.seed, settings)
     row["scene_digest"] = scene_digest(scenario)
     if spec.feasibility == "net":

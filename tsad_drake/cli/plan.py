@@ -15,6 +15,7 @@ FEASIBILITY_NAMES = ("net", "geometric", "oracle")
 DEFAULT_FEASIBILITY = {"tsad": "net", "optimal": "oracle"}
 ABLATIONS = ("none", "no-ro", "no-re")
 OBSERVERS = ("drake", "raycast")
+WORLD_NAMES = ("geometric", "physics")
 
 
 def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
@@ -39,6 +40,12 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
                    help="execute the whole plan without observing again after each sub-search")
     p.add_argument("--max-actions", type=int, default=12,
                    help="episode limit on pick-and-place actions (default 12)")
+    p.add_argument("--world", default="geometric", choices=WORLD_NAMES,
+                   help="what executes and judges the actions: geometric (the 2-D corridor "
+                        "rule) or physics (each action a Drake contact simulation of the "
+                        "station, planned on the perceived poses and re-observed from the "
+                        "simulated state; implies --motion and --observer drake; about "
+                        "5-10 s of wall time per action)")
 
 
 def add_plan_parsers(sub, add_scenario_args) -> None:
@@ -105,7 +112,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
                                ablation=args.ablation, observer=args.observer,
                                closed_loop=not args.open_loop, max_actions=args.max_actions,
-                               motion=args.motion)
+                               motion=args.motion or args.world == "physics", world=args.world)
     result = plan_episode(scenario, args.seed, settings, out)
     path = out / "plan.json"
     tmp = path.with_suffix(".json.tmp")
@@ -117,7 +124,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
         print(f"  {i + 1:2d}. move {a['object']:<8} pick at {a['theta_pick_deg']:+5.0f} deg -> "
               f"({a['place_xy'][0]:.3f}, {a['place_xy'][1]:.3f}) place at "
               f"{a['theta_place_deg']:+5.0f} deg  [sub-search {a['sub_search']}]")
-    if args.motion:
+    if args.world == "physics":
+        for i, a in enumerate(result["actions"]):
+            if "physics" in a:
+                print(f"  physics {i + 1:2d}: {physics_line(a['physics'])}")
+    if args.motion or args.world == "physics":
         motion = result["motion"]
         share = result.get("motion_feasible_share")
         print(f"motion: {sum(m['verified'] for m in motion)}/{len(motion)} executed actions "
@@ -132,6 +143,23 @@ def cmd_plan(args: argparse.Namespace) -> int:
           f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")
     print(f"wrote {path}")
     return 0 if result["success"] else 1
+
+
+def physics_line(m: dict) -> str:
+    """One action's physics outcome in words."""
+    parts = ["moved" if m["moved"] else "NOT moved"]
+    if m["placement_error_mm"] is not None:
+        parts.append(f"placed {m['placement_error_mm']:.1f} mm off")
+    if m["slip_mm"] is not None:
+        parts.append(f"slip {m['slip_mm']:.1f} mm")
+    if m["fallen"]:
+        parts.append("fell: " + ", ".join(m["fallen"]))
+    if m["disturbed"]:
+        parts.append("disturbed: " + ", ".join(m["disturbed"]))
+    if m["reason"]:
+        parts.append(m["reason"])
+    parts.append(f"{m['sim_seconds']:.1f} s simulated in {m['wall_seconds']:.1f} s")
+    return "; ".join(parts)
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -153,7 +181,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
                          feasibility=args.feasibility, ablation=args.ablation,
                          observer=args.observer, occluded=args.occluded,
-                         closed_loop=not args.open_loop, motion=args.motion)
+                         closed_loop=not args.open_loop,
+                         motion=args.motion or args.world == "physics", world=args.world)
              for i in range(args.episodes)]
     document = run_bench(specs, out, workers=args.workers)
     label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"

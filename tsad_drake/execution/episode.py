@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from tsad_drake.execution.world import World
+from tsad_drake.execution.world import ActionOutcome, World
 from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.interface import FeasibilityModel
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
@@ -38,6 +38,15 @@ def action_record(action: Action, true_name: str = "") -> dict:
             "place_xy": [round(action.x, 6), round(action.y, 6)],
             "theta_place_deg": round(math.degrees(action.theta_place), 6),
             "sub_search": action.sub_search}
+
+
+def physics_record(outcome: ActionOutcome) -> dict:
+    """What a physics world measured of one action, as plan.json writes it (figures rounded)."""
+    record = dc.asdict(outcome)
+    for key, value in record.items():
+        if isinstance(value, float):
+            record[key] = round(value, 6)
+    return record
 
 
 @dc.dataclass
@@ -120,8 +129,11 @@ def _execute(world: World, state: PlanningState, actions: list[Action],
                                          "failure": why})
             if not ok and withhold:
                 return n, action
-        world.execute(true_action)
-        result.actions.append(action_record(action, name))
+        outcome = world.execute(true_action)
+        record = action_record(action, name)
+        if world.measures_physics:
+            record["physics"] = physics_record(outcome)
+        result.actions.append(record)
         sim = simulate_pick_place(sim, action)
     return len(actions), None
 

@@ -58,10 +58,29 @@ class ActionOutcome:
     moved: bool  #: the object now stands at the placement
     fallen: list[str] = dc.field(default_factory=list)  #: objects knocked over by this action
     reason: str = ""  #: why the object did not move ("" when it did)
+    # -- measured by a physics world (left at their defaults by the geometric world) ----------
+    #: non-picked objects displaced more than the world's threshold without falling
+    disturbed: list[str] = dc.field(default_factory=list)
+    placement_error_mm: float | None = None  #: mm, moved object's centre to the place point
+    placement_error_deg: float | None = None  #: deg, its yaw to the intended one (symmetry-aware)
+    slip_mm: float | None = None  #: mm, held object's motion in the tcp frame during transport
+    slip_deg: float | None = None  #: deg, the same as a rotation
+    lifted: bool | None = None  #: the object rose with the gripper after the grasp
+    welded: bool | None = None  #: weld grasp mode: both fingers touched and the weld held it
+    tracking_error: float | None = None  #: rad, largest arm joint error against the command
+    tracking_joint: str = ""  #: the joint where it occurred
+    aimed_at: str = ""  #: "perceived" or "true": the object poses the motion was planned on
+    aim_error_mm: float | None = None  #: mm, believed centre of the picked object to the true one
+    sim_seconds: float = 0.0  #: s, simulated time of the action (settling included)
+    wall_seconds: float = 0.0  #: s, wall-clock time of the simulation (planning excluded)
+    planning_seconds: float = 0.0  #: s, wall-clock time of its motion planning
 
 
 class World(ABC):
     """The true scene an episode acts on (see the module docstring)."""
+
+    #: whether `execute` measures its outcome in a simulation (the episode then records it)
+    measures_physics = False
 
     def __init__(self) -> None:
         self.fallen: list[str] = []  #: names of knocked-over objects, in order

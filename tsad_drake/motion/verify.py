@@ -254,6 +254,18 @@ def plan_action(scenario: Scenario, objects: list[ObjectConfig], action: Action,
                         time.perf_counter() - start)
 
 
+def transfer_segment(scenario: Scenario, objects: list[ObjectConfig], q0: np.ndarray,
+                     q1: np.ndarray, name: str, config: MotionConfig | None = None,
+                     X_WS: RigidTransform | None = None) -> Segment:
+    """An optimised, densely checked arm move from q0 to q1 (motion-plant positions, nothing held)
+    among `objects`, timed from 0; raises MotionFailure."""
+    config = config or MotionConfig()
+    X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
+    model = MotionModel(scenario.shelf, X_WS, objects, config)
+    return _arm_segment(model, name, np.asarray(q0, dtype=float), np.asarray(q1, dtype=float),
+                        0.0)
+
+
 def ready_q(scenario: Scenario, objects: list[ObjectConfig], config: MotionConfig | None = None,
             X_WS: RigidTransform | None = None) -> np.ndarray:
     """Motion-plant positions of the ready configuration (tcp at READY_TCP_S facing the shelf)."""

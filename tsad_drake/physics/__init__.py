@@ -1,0 +1,1 @@
+"""The physics world: pick-and-places executed as Drake contact simulations (issue 19)."""
