@@ -23,3 +23,8 @@ class WeightsError(UsageError):
 class InputFileError(UsageError):
     """A data file given as input (dataset shard, bench result, bench rows) that is unreadable or
     malformed."""
+
+
+class RunFailure(RuntimeError):
+    """A command that could not finish for a reason outside its input (a worker process killed):
+    one line and exit status 1."""
