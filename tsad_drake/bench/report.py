@@ -60,7 +60,7 @@ def _bench_problem(document) -> str:
         for field, kind in ROW_FIELDS.items():
             value = row.get(field)
             if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-                return f"rows[{k}].{field} must be a {kind.__name__}"
+                return f"rows[{k}].{field} must be of type {kind.__name__}"
         if not row["success"] and not isinstance(row.get("failure_reason"), str):
             return f"rows[{k}].failure_reason must be a string"
     if not isinstance(summary, dict):

@@ -69,7 +69,7 @@ def resolve_scenario(spec: str, seed: int, occluded: bool = False):
     if spec in BUILTIN_SCENARIOS:
         check_seeds("--seed", seed)
         return generate_scenario(spec, seed, occluded=occluded)
-    if spec.endswith((".yaml", ".yml")) or os.sep in spec or Path(spec).exists():
+    if spec.strip() and (spec.endswith((".yaml", ".yml")) or os.sep in spec or Path(spec).exists()):
         return load_scenario(spec)
     raise UsageError(f"unknown scenario {spec!r}: use one of {', '.join(BUILTIN_SCENARIOS)} "
                      "or the path of a scenario YAML file")
@@ -87,8 +87,24 @@ def add_scenario_args(p: argparse.ArgumentParser) -> None:
                         f"(scenarios {', '.join(OCCLUDED_SCENARIOS)})")
 
 
+#: largest --threads
+MAX_THREADS = 64
+
+
+def thread_count(text: str) -> int:
+    """argparse type of --threads: an integer from 1 to MAX_THREADS (checked while parsing, since
+    the threads are pinned before the command starts)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if not 1 <= value <= MAX_THREADS:
+        raise argparse.ArgumentTypeError(f"must be between 1 and {MAX_THREADS}, got {value}")
+    return value
+
+
 def add_threads_arg(p: argparse.ArgumentParser, default: int = 1) -> None:
-    p.add_argument("--threads", type=int, default=default,
+    p.add_argument("--threads", type=thread_count, default=default,
                    help="CPU threads for torch and the BLAS libraries (per worker process), so "
                         "time budgets and plans do not depend on the machine's load "
                         f"(default {default})")

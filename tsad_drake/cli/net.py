@@ -17,7 +17,6 @@ from tsad_drake.outputs import atomic_write_text, prepare_out_dir, prepare_out_f
 
 OBSERVERS = ("raycast", "drake")
 MAX_SCENES = 100_000  #: largest --scenes
-MAX_THREADS = 64  #: largest --threads
 
 
 def add_net_parsers(sub) -> None:
@@ -89,7 +88,6 @@ def cmd_dataset(args: argparse.Namespace) -> int:
 
     check_int("--scenes", args.scenes, 1, MAX_SCENES)
     check_int("--shard-size", args.shard_size, 1, 10_000)
-    check_int("--threads", args.threads, 1, MAX_THREADS)
     check_seeds("--seed-start", args.seed_start, args.scenes)
     out = prepare_out_dir(args.out)
     if dataset_shards(out.root):
@@ -106,7 +104,6 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     check_int("--epochs", args.epochs, 1, 10_000)
     check_int("--batch", args.batch, 1, 4096)
-    check_int("--threads", args.threads, 1, MAX_THREADS)
     check_int("--seed", args.seed, 0, 2**31 - 1)
     check_float("--lr", args.lr, 0.0, 1.0)
     check_float("--max-minutes", args.max_minutes, 0.0, 7 * 24 * 60)
@@ -129,7 +126,6 @@ def cmd_net_calibrate(args: argparse.Namespace) -> int:
     from tsad_drake.prehensile.training import calibrate_thresholds
 
     check_int("--scenes", args.scenes, 1, 10_000)
-    check_int("--threads", args.threads, 1, MAX_THREADS)
     load_checkpoint(args.weights)  # one clear line on a missing or bad file
     prepare_out_file(args.weights, option="--weights")  # updated in place: writable?
     print(json.dumps(calibrate_thresholds(Path(args.weights), args.scenes)))
@@ -142,7 +138,6 @@ def cmd_net_eval(args: argparse.Namespace) -> int:
     from tsad_drake.prehensile.training import evaluate_scenes, format_table
 
     check_int("--scenes", args.scenes, 1, MAX_SCENES)
-    check_int("--threads", args.threads, 1, MAX_THREADS)
     check_seeds("--seed-start", args.seed_start, args.scenes)
     _, meta = load_checkpoint(args.weights)  # one clear line on a missing or bad file
     last = args.seed_start + args.scenes - 1

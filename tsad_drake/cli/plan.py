@@ -26,7 +26,6 @@ OBSERVERS = ("drake", "raycast")
 MAX_ACTIONS = 100  #: largest --max-actions
 MAX_EPISODES = 10_000  #: largest --episodes
 MAX_WORKERS = 64  #: largest --workers
-MAX_THREADS = 64  #: largest --threads
 
 
 def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
@@ -108,7 +107,6 @@ def _check_planner_args(args: argparse.Namespace) -> None:
     if args.feasibility is None:
         args.feasibility = DEFAULT_FEASIBILITY.get(args.planner, "geometric")
     check_int("--max-actions", args.max_actions, 1, MAX_ACTIONS)
-    check_int("--threads", args.threads, 1, MAX_THREADS)
     if args.ablation != "none" and not get_planner(args.planner).ablations:
         raise UsageError(f"--ablation {args.ablation} applies to planners with reward ablations "
                          f"(tsad), not to {args.planner}")
