@@ -47,3 +47,14 @@ def changed_outside(before: dict, after: dict, allowed: list[Path]) -> list[Path
     return [p for p in changed
             if not any(p == a or a in p.parents for a in allowed)]
 
+
+
+def bench_document(seeds: int = 3) -> dict:
+    """A small `tsad bench` result (seed 1 failed) as `tsad report` reads it."""
+    from tsad_drake.bench.metrics import summarise
+
+    rows = [{"seed": s, "success": s != 1, "num_actions": 3, "falls": 0, "planning_time_s": 1.0,
+             "failure_reason": "" if s != 1 else "planning failed: sub-search 0"}
+            for s in range(seeds)]
+    return {"spec": {"scenario": "3", "planner": "gp3", "feasibility": "geometric"},
+            "rows": rows, "summary": summarise(rows), "machine": {"platform": "test"}}

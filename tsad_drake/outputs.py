@@ -96,6 +96,8 @@ def _describe(err: OSError) -> str:
 
 def prepare_out_dir(path: str | Path, option: str = "--out") -> OutputDir:
     """Create the output directory and prove it is writable, before any work is done."""
+    if not str(path).strip():
+        raise UsageError(f"{option} must not be empty")
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise UsageError(f"{option} {out} exists and is not a directory")

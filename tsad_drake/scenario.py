@@ -150,7 +150,8 @@ def _integer(path: str, value, low: int, high: int) -> int:
     return value
 
 
-def _check_object_name(path: str, name) -> None:
+def check_object_name(path: str, name) -> None:
+    """ScenarioError (naming `path`) unless `name` is a safe identifier no one else uses."""
     if not isinstance(name, str) or not OBJECT_NAME_PATTERN.fullmatch(name):
         _fail(path, f"must be a letter followed by at most 31 letters, digits or underscores, "
                     f"got {name!r}")
@@ -194,7 +195,7 @@ def _validate_frame(scenario: Scenario) -> None:
 
 def _validate_object(k: int, obj: ObjectConfig, shelf: ShelfConfig) -> None:
     where = f"objects[{k}]"
-    _check_object_name(f"{where}.name", obj.name)
+    check_object_name(f"{where}.name", obj.name)
     if obj.shape not in SHAPES:
         _fail(f"{where}.shape", f"must be one of {', '.join(SHAPES)}, got {obj.shape!r}")
     if obj.kind not in KINDS:

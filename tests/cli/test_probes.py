@@ -13,9 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from cli_harness import assert_clean, changed_outside, invoke, snapshot
+from cli_harness import assert_clean, bench_document, changed_outside, invoke, snapshot
 
-from tsad_drake.bench.metrics import summarise
 from tsad_drake.bench.runner import EpisodeSpec, spec_scenario
 from tsad_drake.prehensile.checkpoint import save_checkpoint
 from tsad_drake.prehensile.dataset import Samples
@@ -73,13 +72,6 @@ def _nan_weights(document: dict) -> None:
     document["state_dict"][first] = torch.full_like(document["state_dict"][first], float("nan"))
 
 
-def _bench_document() -> dict:
-    rows = [{"seed": s, "success": s != 1, "num_actions": 3, "falls": 0, "planning_time_s": 1.0,
-             "failure_reason": "" if s != 1 else "planning failed: sub-search 0"} for s in range(3)]
-    return {"spec": {"scenario": "3", "planner": "gp3", "feasibility": "geometric"},
-            "rows": rows, "summary": summarise(rows), "machine": {"platform": "test"}}
-
-
 def _finished_row(seed: int) -> dict:
     spec = EpisodeSpec(scenario="3", seed=seed, planner="gp3", feasibility="geometric")
     row = {k: getattr(spec, k) for k in EpisodeSpec.__dataclass_fields__}
@@ -113,7 +105,7 @@ def files(tmp_path_factory) -> dict[str, Path]:
     f["binary.json"].write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(200))
     f["folder"] = root / "folder"
     f["folder"].mkdir()
-    bench = _bench_document()
+    bench = bench_document()
     f["bench.json"] = root / "bench.json"
     f["bench.json"].write_text(json.dumps(bench))
     broken = {"string-seed": lambda d: d["rows"][0].update(seed="0"),
@@ -122,7 +114,7 @@ def files(tmp_path_factory) -> dict[str, Path]:
               "no-failure-reason": lambda d: d["rows"][1].pop("failure_reason"),
               "spec-list": lambda d: d.update(spec=["gp3"])}
     for name, edit in broken.items():
-        document = _bench_document()
+        document = bench_document()
         edit(document)
         f[name] = root / f"{name}.json"
         f[name].write_text(json.dumps(document))

@@ -10,6 +10,7 @@ what the verifier checked. `validate_motion_section` is the schema, as a functio
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -23,7 +24,7 @@ from pydrake.systems.framework import DiagramBuilder
 from tsad_drake.motion.verify import ActionMotion
 from tsad_drake.outputs import OutputDir
 from tsad_drake.planning.types import Action
-from tsad_drake.scenario import ObjectConfig, Scenario
+from tsad_drake.scenario import ObjectConfig, Scenario, check_object_name
 from tsad_drake.station import HOME_Q, StationConfig
 from tsad_drake.station_models import (
     FINGER_JOINTS,
@@ -195,8 +196,9 @@ def _link_sdf(name: str, mass: float, parts: list[tuple[str, tuple, tuple, str]]
 
 
 def _yaml_quoted(text: str) -> str:
-    """`text` as a single-quoted YAML scalar (a name like `yes` or `1e3` stays a string)."""
-    return "'" + text.replace("'", "''") + "'"
+    """`text` as a double-quoted YAML scalar (a name like `yes` or `1e3` stays a string; quotes,
+    backslashes and control characters escaped as in JSON, which YAML reads the same way)."""
+    return json.dumps(text, ensure_ascii=False)
 
 
 def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
@@ -207,9 +209,12 @@ def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
     out_dir/package.xml (package `tsad_drake_scene`), then ProcessModelDirectives(
     LoadModelDirectives(path), plant, parser). The objects are free bodies with their scenario
     poses as default free-body poses; the arm starts at HOME_Q, the fingers open. Object names
-    become file names through `OutputDir` (a name that would leave out_dir is refused) and are
-    quoted in the SDFormat and YAML text; `scenario.validate` restricts them to identifiers.
+    must be safe identifiers (`scenario.check_object_name`, ScenarioError otherwise); they become
+    file names through `OutputDir` (a name that would leave out_dir is refused) and are quoted in
+    the SDFormat and YAML text.
     """
+    for k, obj in enumerate(scenario.objects):  # also for scenarios that were never validated
+        check_object_name(f"objects[{k}].name", obj.name)
     if not isinstance(out_dir, OutputDir):
         Path(out_dir).mkdir(parents=True, exist_ok=True)
         out_dir = OutputDir(out_dir)
