@@ -30,7 +30,7 @@ from tsad_drake.outputs import OutputDir, atomic_write_text
 from tsad_drake.scenario import OBJECT_NAME_PATTERN, RESERVED_NAMES, save_scenario
 from tsad_drake.scenes import generate_scenario
 
-FAST = settings(max_examples=40, deadline=None, derandomize=True,
+FAST = settings(max_examples=40, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 LONG = settings(FAST, max_examples=400)
 
@@ -113,18 +113,11 @@ def cli(capsys):
     return lambda *args: invoke(capsys, [str(a) for a in args])
 
 
-def test_mutated_yaml_is_clean(base_yaml, cli):
-    @settings(FAST, max_examples=30)
-    @given(mutated_scenarios(base_yaml))
-    def check(data):
-        _check_mutated_yaml(data, cli)
-
-    check()
-
-
-@pytest.mark.slow
-def test_mutated_yaml_is_clean_long(base_yaml, cli):
-    @LONG
+@pytest.mark.parametrize("config", [settings(FAST, max_examples=30),
+                                    pytest.param(LONG, marks=pytest.mark.slow)],
+                         ids=["bounded", "long"])
+def test_mutated_yaml_is_clean(config, base_yaml, cli):
+    @config
     @given(mutated_scenarios(base_yaml))
     def check(data):
         _check_mutated_yaml(data, cli)
@@ -272,18 +265,10 @@ def _check_command_line(template: list[str], cli, scenario) -> None:
         assert changed == [], (args, changed)
 
 
-def test_command_lines_are_clean(stand_ins, cli):
-    @FAST
-    @given(command_lines())
-    def check(args):
-        _check_command_line(args, cli, stand_ins.scenario)
-
-    check()
-
-
-@pytest.mark.slow
-def test_command_lines_are_clean_long(stand_ins, cli):
-    @LONG
+@pytest.mark.parametrize("config", [FAST, pytest.param(LONG, marks=pytest.mark.slow)],
+                         ids=["bounded", "long"])
+def test_command_lines_are_clean(config, stand_ins, cli):
+    @config
     @given(command_lines())
     def check(args):
         _check_command_line(args, cli, stand_ins.scenario)
