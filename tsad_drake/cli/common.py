@@ -16,6 +16,8 @@ MAX_SEED = 2**31 - 1
 #: built-in scenarios that have an occluded variant (the `real` shelf holds too few objects to
 #: hide its target behind a front row: the generator would search for 30 s and give up)
 OCCLUDED_SCENARIOS = ("1", "2", "3")
+#: largest --threads
+MAX_THREADS = 64
 
 
 class Parser(argparse.ArgumentParser):
@@ -52,13 +54,18 @@ def is_builtin(spec: str) -> bool:
     return spec in BUILTIN_SCENARIOS
 
 
-def check_scenario_args(args: argparse.Namespace) -> None:
-    """--seed in range; --occluded only with a built-in scenario that has an occluded variant."""
-    check_seeds("--seed", args.seed)
-    if args.occluded and args.scenario not in OCCLUDED_SCENARIOS:
-        what = "a scenario YAML file" if not is_builtin(args.scenario) else f"scenario {args.scenario}"
+def check_occluded(scenario: str, occluded: bool) -> None:
+    """--occluded only with a built-in scenario that has an occluded variant."""
+    if occluded and scenario not in OCCLUDED_SCENARIOS:
+        what = "a scenario YAML file" if not is_builtin(scenario) else f"scenario {scenario}"
         raise UsageError(f"--occluded generates scenes of scenario {', '.join(OCCLUDED_SCENARIOS)}; "
                          f"it does not apply to {what}")
+
+
+def check_scenario_args(args: argparse.Namespace) -> None:
+    """--seed in range and --occluded where it applies (the arguments of `add_scenario_args`)."""
+    check_seeds("--seed", args.seed)
+    check_occluded(args.scenario, args.occluded)
 
 
 def resolve_scenario(spec: str, seed: int, occluded: bool = False):
@@ -85,10 +92,6 @@ def add_scenario_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--occluded", action="store_true",
                    help="generate a scene whose target is fully hidden from every view "
                         f"(scenarios {', '.join(OCCLUDED_SCENARIOS)})")
-
-
-#: largest --threads
-MAX_THREADS = 64
 
 
 def thread_count(text: str) -> int:

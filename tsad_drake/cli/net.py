@@ -104,7 +104,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     check_int("--epochs", args.epochs, 1, 10_000)
     check_int("--batch", args.batch, 1, 4096)
-    check_int("--seed", args.seed, 0, 2**31 - 1)
+    check_seeds("--seed", args.seed)
     check_float("--lr", args.lr, 0.0, 1.0)
     check_float("--max-minutes", args.max_minutes, 0.0, 7 * 24 * 60)
     data = Path(args.data)

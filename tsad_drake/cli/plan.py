@@ -7,9 +7,9 @@ import json
 from pathlib import Path
 
 from tsad_drake.cli.common import (
-    OCCLUDED_SCENARIOS,
     add_threads_arg,
     check_int,
+    check_occluded,
     check_scenario_args,
     check_seeds,
     resolve_scenario,
@@ -161,9 +161,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.scenario not in BUILTIN_SCENARIOS:
         raise UsageError(f"unknown scenario {args.scenario!r}: bench runs built-in scenarios "
                          f"{', '.join(BUILTIN_SCENARIOS)}")
-    if args.occluded and args.scenario not in OCCLUDED_SCENARIOS:
-        raise UsageError(f"--occluded generates scenes of scenario {', '.join(OCCLUDED_SCENARIOS)}; "
-                         f"it does not apply to scenario {args.scenario}")
+    check_occluded(args.scenario, args.occluded)
     check_int("--episodes", args.episodes, 1, MAX_EPISODES)
     check_int("--workers", args.workers, 1, MAX_WORKERS)
     check_seeds("--seed-start", args.seed_start, args.episodes)
