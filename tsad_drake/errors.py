@@ -4,6 +4,8 @@ from __future__ import annotations
 
 #: exit status of a command given bad input
 EXIT_BAD_INPUT = 2
+#: exit status of a command stopped by SIGINT (Ctrl-C), as the shell reports it
+EXIT_INTERRUPTED = 130
 
 
 class UsageError(ValueError):
@@ -16,3 +18,13 @@ class ScenarioError(UsageError):
 
 class WeightsError(UsageError):
     """A prehensile network weights file that is missing, unreadable or does not match the model."""
+
+
+class InputFileError(UsageError):
+    """A data file given as input (dataset shard, bench result, bench rows) that is unreadable or
+    malformed."""
+
+
+class RunFailure(RuntimeError):
+    """A command that could not finish for a reason outside its input (a worker process killed):
+    one line and exit status 1."""

@@ -1,13 +1,15 @@
 """`tsad render`: build the station, observe from every approach angle, write the results.
 
-Everything is computed in memory first and written into a temporary folder beside the output,
-then moved into place, so an interrupted or failed run never leaves files that look complete.
+Everything is computed in memory first and written into a hidden temporary folder inside the
+output directory, then renamed into place, so an interrupted or failed run never leaves files that
+look complete and nothing is written outside the output directory.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 import tempfile
 import time
@@ -15,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tsad_drake.outputs import OutputDir
 from tsad_drake.scenario import Scenario, save_scenario
 
 OUTPUT_FILES = ("depth.npy", "depth.png", "labels.npy", "cloud.ply", "segments.npy",
@@ -57,7 +60,7 @@ def _write_cloud(points: np.ndarray, segment_index: np.ndarray, path: Path) -> N
         raise OSError(f"open3d could not write {path}")
 
 
-def render_and_write(scenario: Scenario, out: Path, segmentation: str = "label") -> dict:
+def render_and_write(scenario: Scenario, out: OutputDir | Path, segmentation: str = "label") -> dict:
     """Observe `scenario` through the Drake station and write the render outputs into `out`."""
     from tsad_drake.perception.observe import observe, summary_table
     from tsad_drake.station import MakeStation
@@ -85,8 +88,8 @@ def render_and_write(scenario: Scenario, out: Path, segmentation: str = "label")
                      for k, o in enumerate(observation.scene.objects)],
         "station_build_s": t_build, "observation_s": t_observe,
     }
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=".tsad-render-", dir=out.parent))
+    out = out if isinstance(out, OutputDir) else OutputDir(out)
+    staging = Path(tempfile.mkdtemp(prefix=".staging-", dir=out.root))
     try:
         np.save(staging / "depth.npy", np.stack([v.depth for v in observation.views])
                 .astype(np.float32))
@@ -97,9 +100,8 @@ def render_and_write(scenario: Scenario, out: Path, segmentation: str = "label")
         np.save(staging / "segments.npy", segments_array.astype(np.float32))
         (staging / "segments.json").write_text(json.dumps(summary, indent=2))
         save_scenario(scenario, staging / "scene.yaml")
-        out.mkdir(parents=True, exist_ok=True)
         for name in OUTPUT_FILES:
-            shutil.move(str(staging / name), str(out / name))
+            os.replace(staging / name, out / name)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
 

@@ -14,12 +14,14 @@ No `from __future__ import annotations` here: Drake's typed YAML reads the real 
 
 import dataclasses as dc
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 
 from tsad_drake.errors import ScenarioError
 from tsad_drake.geometry2d import convex_polygon_distance, footprint_polygon
+from tsad_drake.outputs import atomic_write_text
 
 SHAPES = ("cylinder", "box")
 #: object kinds: what role an object plays in the paper's scenarios
@@ -111,47 +113,137 @@ class Scenario:
         return [o.name for o in self.objects].index(self.target)
 
 
-def validate(scenario: Scenario) -> None:
-    """Raise ScenarioError with one clear sentence when the scenario is malformed or impossible."""
+#: object names: a letter, then letters, digits or underscores (they become Drake model instance
+#: and body names, SDFormat/YAML text and file names in the motion export)
+OBJECT_NAME_PATTERN = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,31}")
+#: names the station, the motion export or Drake already use (compared case-insensitively, so two
+#: exported files never differ by case alone)
+RESERVED_NAMES = frozenset({"world", "shelf", "ground", "ur5e", "gripper_2f85", "package",
+                            "worldmodelinstance", "defaultmodelinstance"})
+#: bounds that keep memory and time bounded (a grid of cells_x * cells_y candidates per object
+#: and angle, pairwise object checks)
+MAX_OBJECTS = 40
+MAX_GRID_CELLS = 32  #: per axis
+MAX_APPROACH_ANGLES = 36
+MAX_SHELF_SIZE = 2.0  #: m, inner depth, width and height
+MIN_OBJECT_SIZE = 0.005  #: m, smallest radius, side or height (smaller is not seen at 128x128)
+MAX_MASS = 50.0  #: kg
+
+
+def _fail(path: str, message: str) -> None:
+    raise ScenarioError(f"{path}: {message}")
+
+
+def _number(path: str, value, low: float, high: float, low_open: bool = False) -> float:
+    """`value` when it is a finite number in [low, high] ((low, high] with `low_open`)."""
+    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if (not is_number or not math.isfinite(value) or value > high
+            or (value <= low if low_open else value < low)):
+        bracket = "(" if low_open else "["
+        _fail(path, f"must be a finite number in {bracket}{low:g}, {high:g}], got {value!r}")
+    return float(value)
+
+
+def _integer(path: str, value, low: int, high: int) -> int:
+    if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
+        _fail(path, f"must be an integer in [{low}, {high}], got {value!r}")
+    return value
+
+
+def check_object_name(path: str, name) -> None:
+    """ScenarioError (naming `path`) unless `name` is a safe identifier no one else uses."""
+    if not isinstance(name, str) or not OBJECT_NAME_PATTERN.fullmatch(name):
+        _fail(path, f"must be a letter followed by at most 31 letters, digits or underscores, "
+                    f"got {name!r}")
+    if name.lower() in RESERVED_NAMES:
+        _fail(path, f"{name!r} is reserved (the station uses it)")
+
+
+def _validate_frame(scenario: Scenario) -> None:
+    """Shelf, grid, gripper, angles and the scalar fields."""
+    if not isinstance(scenario.name, str) or not scenario.name.isprintable() or not (
+            0 < len(scenario.name) <= 64):
+        _fail("name", f"must be 1 to 64 printable characters, got {scenario.name!r}")
+    _integer("seed", scenario.seed, 0, 2**63 - 1)
     shelf = scenario.shelf
-    if min(shelf.depth, shelf.width, shelf.height, shelf.wall_thickness) <= 0:
-        raise ScenarioError("shelf dimensions must be positive")
-    if scenario.grid.cells_x < 1 or scenario.grid.cells_y < 1:
-        raise ScenarioError("grid must have at least one cell along each axis")
-    if not scenario.approach_angles_deg:
-        raise ScenarioError("approach_angles_deg must not be empty")
-    if any(abs(a) >= 90 for a in scenario.approach_angles_deg):
-        raise ScenarioError("approach angles must lie strictly between -90 and 90 degrees")
-    if not scenario.objects:
-        raise ScenarioError("scenario has no objects")
-    names = [o.name for o in scenario.objects]
-    if len(set(names)) != len(names) or any(not n for n in names):
-        raise ScenarioError("object names must be unique and non-empty")
+    for field in ("depth", "width", "height"):
+        _number(f"shelf.{field}", getattr(shelf, field), 0.0, MAX_SHELF_SIZE, low_open=True)
+    _number("shelf.wall_thickness", shelf.wall_thickness, 0.0, 0.2, low_open=True)
+    _number("shelf.floor_height", shelf.floor_height, 0.0, 1.5)
+    grid = scenario.grid
+    _integer("grid.cells_x", grid.cells_x, 1, MAX_GRID_CELLS)
+    _integer("grid.cells_y", grid.cells_y, 1, MAX_GRID_CELLS)
+    _number("grid.margin", grid.margin, 0.0, MAX_SHELF_SIZE)
+    if grid.margin >= min(shelf.depth, shelf.width) / 2:
+        _fail("grid.margin", "leaves no room for the grid")
+    gripper = scenario.gripper
+    stroke = _number("gripper.stroke", gripper.stroke, 0.0, 0.3, low_open=True)
+    if _number("gripper.grasp_margin", gripper.grasp_margin, 0.0, stroke) >= stroke:
+        _fail("gripper.grasp_margin", f"must be smaller than gripper.stroke ({stroke:g})")
+    _number("gripper.swept_half_width", gripper.swept_half_width, stroke / 2, 0.3)
+    _number("gripper.finger_reach", gripper.finger_reach, 0.0, 0.2)
+    _number("gripper.planning_clearance", gripper.planning_clearance, 0.0, 0.1)
+    _number("min_gap", scenario.min_gap, 0.0, 0.1)
+    angles = scenario.approach_angles_deg
+    if not isinstance(angles, list) or not 1 <= len(angles) <= MAX_APPROACH_ANGLES:
+        _fail("approach_angles_deg", f"must hold 1 to {MAX_APPROACH_ANGLES} angles")
+    for k, angle in enumerate(angles):
+        _number(f"approach_angles_deg[{k}]", angle, -89.0, 89.0)
+    if len(set(angles)) != len(angles):
+        _fail("approach_angles_deg", "angles must be distinct")
+
+
+def _validate_object(k: int, obj: ObjectConfig, shelf: ShelfConfig) -> None:
+    where = f"objects[{k}]"
+    check_object_name(f"{where}.name", obj.name)
+    if obj.shape not in SHAPES:
+        _fail(f"{where}.shape", f"must be one of {', '.join(SHAPES)}, got {obj.shape!r}")
+    if obj.kind not in KINDS:
+        _fail(f"{where}.kind", f"must be one of {', '.join(KINDS)}, got {obj.kind!r}")
+    expected = 2 if obj.shape == "cylinder" else 3
+    if not isinstance(obj.size, list) or len(obj.size) != expected:
+        _fail(f"{where}.size", f"a {obj.shape} needs {expected} sizes "
+                               f"({'[radius, height]' if expected == 2 else '[sx, sy, height]'})")
+    footprint_limits = [shelf.depth / 2] if obj.shape == "cylinder" else [shelf.depth, shelf.width]
+    for j, limit in enumerate(footprint_limits):
+        _number(f"{where}.size[{j}]", obj.size[j], MIN_OBJECT_SIZE, max(limit, MIN_OBJECT_SIZE))
+    _number(f"{where}.size[{expected - 1}]", obj.height, MIN_OBJECT_SIZE,
+            max(shelf.height - 0.02, MIN_OBJECT_SIZE))
+    _number(f"{where}.x", obj.x, -MAX_SHELF_SIZE, MAX_SHELF_SIZE)  # inside: the footprint below
+    _number(f"{where}.y", obj.y, -MAX_SHELF_SIZE, MAX_SHELF_SIZE)
+    _number(f"{where}.yaw", obj.yaw, -100.0, 100.0)
+    _number(f"{where}.mass", obj.mass, 0.0, MAX_MASS, low_open=True)
+    poly = obj.footprint()
+    if (poly[:, 0].min() < 0 or poly[:, 0].max() > shelf.depth
+            or abs(poly[:, 1]).max() > shelf.width / 2):
+        _fail(where, f"object {obj.name} lies outside the shelf workspace")
+
+
+def validate(scenario: Scenario) -> None:
+    """Raise ScenarioError naming the field (`objects[3].size[0]: ...`) when the scenario is
+    malformed, out of range or physically impossible: every number finite and in range, names
+    safe and not reserved, sizes bounded, objects inside the shelf and apart, the target one of
+    them."""
+    _validate_frame(scenario)
+    objects = scenario.objects
+    if not isinstance(objects, list) or not 1 <= len(objects) <= MAX_OBJECTS:
+        _fail("objects", f"must hold 1 to {MAX_OBJECTS} objects")
+    seen: dict[str, int] = {}
+    for k, obj in enumerate(objects):
+        _validate_object(k, obj, scenario.shelf)
+        if obj.name.lower() in seen:
+            _fail(f"objects[{k}].name", f"{obj.name!r} repeats objects[{seen[obj.name.lower()]}]"
+                                        " (names are compared ignoring case)")
+        seen[obj.name.lower()] = k
+    names = [o.name for o in objects]
     if scenario.target not in names:
-        raise ScenarioError(f"target {scenario.target!r} is not one of the objects")
-    for obj in scenario.objects:
-        if obj.shape not in SHAPES:
-            raise ScenarioError(f"object {obj.name}: unknown shape {obj.shape!r} (use {SHAPES})")
-        if obj.kind not in KINDS:
-            raise ScenarioError(f"object {obj.name}: unknown kind {obj.kind!r} (use {KINDS})")
-        expected = 2 if obj.shape == "cylinder" else 3
-        if len(obj.size) != expected or min(obj.size) <= 0:
-            raise ScenarioError(
-                f"object {obj.name}: {obj.shape} needs {expected} positive sizes, got {obj.size}")
-        if obj.height > shelf.height - 0.02:
-            raise ScenarioError(f"object {obj.name} is taller than the shelf")
-        if not all(math.isfinite(v) for v in (obj.x, obj.y, obj.yaw)):
-            raise ScenarioError(f"object {obj.name}: pose must be finite")
-        poly = obj.footprint()
-        if (poly[:, 0].min() < 0 or poly[:, 0].max() > shelf.depth
-                or abs(poly[:, 1]).max() > shelf.width / 2):
-            raise ScenarioError(f"object {obj.name} lies outside the shelf workspace")
-    polys = [o.footprint() for o in scenario.objects]
+        _fail("target", f"{scenario.target!r} is not the name of one of the objects")
+    polys = [o.footprint() for o in objects]
     for i in range(len(polys)):
         for j in range(i + 1, len(polys)):
             if convex_polygon_distance(polys[i], polys[j]) < 1e-4:
-                raise ScenarioError(
-                    f"objects {names[i]} and {names[j]} overlap")
+                _fail("objects", f"objects[{i}] ({names[i]}) and objects[{j}] ({names[j]}) "
+                                 "overlap")
 
 
 def scene_digest(scenario: Scenario) -> str:
@@ -168,7 +260,7 @@ def save_scenario(scenario: Scenario, path: str | Path) -> None:
     """Write the scenario as YAML readable by `load_scenario` (and Drake's yaml_load_typed)."""
     from pydrake.common.yaml import yaml_dump_typed
 
-    Path(path).write_text(yaml_dump_typed(scenario))
+    atomic_write_text(path, yaml_dump_typed(scenario))
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -183,5 +275,8 @@ def load_scenario(path: str | Path) -> Scenario:
     except Exception as err:  # Drake raises RuntimeError with a multi-line message
         first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         raise ScenarioError(f"malformed scenario YAML {path}: {first}") from None
-    validate(scenario)
+    try:
+        validate(scenario)
+    except ScenarioError as err:
+        raise ScenarioError(f"scenario {path}: {err}") from None
     return scenario

@@ -215,7 +215,8 @@ def test_rows_of_other_network_weights_are_run_again(tmp_path):
 
     specs = [EpisodeSpec(scenario="3", seed=s, planner="tsad", feasibility="net") for s in (0, 1)]
     rows_path = tmp_path / "net.json.rows.jsonl"
-    rows = [{**dict(zip(SPEC_KEYS, spec.key())), "seed": spec.seed,
+    rows = [{**dict(zip(SPEC_KEYS, spec.key())), "seed": spec.seed, "success": True,
+             "num_actions": 2, "falls": 0, "planning_time_s": 0.5,
              "scene_digest": scene_digest(spec_scenario(spec)), "weights_digest": digest}
             for spec, digest in zip(specs, (weights_digest(), "000000000000"))]
     undigested = {**rows[1], "weights_digest": None}  # a row from before rows recorded it

@@ -4,27 +4,18 @@ import subprocess
 import sys
 
 import pytest
+from cli_harness import assert_clean, invoke
 
-from tsad_drake.cli import main
 from tsad_drake.scenario import load_scenario, save_scenario
 from tsad_drake.scenes import generate_scenario
 
 
 def run_cli(capsys, *args):
-    try:
-        code = main(list(args))
-    except SystemExit as exit_:
-        code = exit_.code
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
+    return invoke(capsys, list(args))
 
 
 def assert_one_line_exit_2(result):
-    code, _, err = result
-    assert code == 2
-    lines = [line for line in err.splitlines() if line.strip()]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err
+    assert_clean(result, codes=(2,))
 
 
 def test_scene_writes_loadable_yaml(tmp_path, capsys):

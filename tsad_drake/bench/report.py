@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from tsad_drake.bench.metrics import paper_table
+from tsad_drake.errors import InputFileError
+from tsad_drake.outputs import atomic_write, atomic_write_text
 
 #: the paper's Table I (success rate; actions success/all; falls success/all)
 PAPER_TABLE_I = {
@@ -24,6 +27,78 @@ TARGET_MEDIAN_S = 5.0
 TARGET_OVER_OPTIMAL = 0.20
 TARGET_NET_GAP = 0.03
 TARGET_NET_MEDIAN_S = 10.0
+
+
+#: a bench row's fields the report reads, and their types
+ROW_FIELDS = {"seed": int, "success": bool, "num_actions": int, "falls": int}
+#: summary fields the report reads: required ones are numbers, the rest numbers or null
+SUMMARY_NUMBERS = ("success_rate",)
+SUMMARY_OPTIONAL_NUMBERS = ("actions_success", "actions_all", "falls_success", "falls_all",
+                            "planning_time_median_s", "mean_initial_rearrangement_set_size",
+                            "mean_motion_feasible_share", "network_evaluations_mean",
+                            "network_queries_per_s")
+
+
+def _is_number(value) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _bench_problem(document) -> str:
+    """What makes `document` not a `tsad bench` result the report can read ("" when it is one)."""
+    if not isinstance(document, dict):
+        return "the JSON is not an object"
+    spec, summary, rows = document.get("spec"), document.get("summary"), document.get("rows")
+    if not isinstance(spec, dict) or not isinstance(spec.get("planner"), str) or not isinstance(
+            spec.get("scenario"), (str, int)) or isinstance(spec.get("scenario"), bool):
+        return "spec must name a planner and a scenario"
+    if not isinstance(rows, list) or not rows:
+        return "rows must be a non-empty list"
+    for k, row in enumerate(rows):
+        if not isinstance(row, dict):
+            return f"rows[{k}] is not an object"
+        for field, kind in ROW_FIELDS.items():
+            value = row.get(field)
+            if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
+                return f"rows[{k}].{field} must be of type {kind.__name__}"
+        if not row["success"] and not isinstance(row.get("failure_reason"), str):
+            return f"rows[{k}].failure_reason must be a string"
+    if not isinstance(summary, dict):
+        return "summary must be an object"
+    for field in SUMMARY_NUMBERS:
+        if not _is_number(summary.get(field)):
+            return f"summary.{field} must be a finite number"
+    for field in SUMMARY_OPTIONAL_NUMBERS:
+        if summary.get(field) is not None and not _is_number(summary[field]):
+            return f"summary.{field} must be a finite number or null"
+    if not isinstance(summary.get("episodes"), int) or summary["planning_time_median_s"] is None:
+        return "summary.episodes and summary.planning_time_median_s are missing"
+    reasons = summary.get("failure_reasons")
+    if not isinstance(reasons, dict) or not all(isinstance(v, int) for v in reasons.values()):
+        return "summary.failure_reasons must map reasons to counts"
+    if not isinstance(document.get("machine", {}), dict):
+        return "machine must be an object"
+    return ""
+
+
+def load_bench_document(path: str | Path) -> dict:
+    """A `tsad bench` result file, checked field by field; InputFileError when it is unreadable
+    or not a bench result."""
+    try:
+        document = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        why = err.strerror if isinstance(err, OSError) and err.strerror else str(err).splitlines()[0]
+        raise InputFileError(f"cannot read bench result {path}: {why}") from None
+    problem = _bench_problem(document)
+    if problem:
+        raise InputFileError(f"{path} is not a `tsad bench` result: {problem}")
+    return document
+
+
+def report_outputs(out: Path) -> tuple[Path, Path, Path]:
+    """The files `write_report(documents, out)` writes: the page, its JSON digest and its plot."""
+    out = Path(out)
+    return out, out.with_suffix(".json"), out.with_suffix(".png")
 
 
 def _label(spec: dict) -> str:
@@ -236,11 +311,11 @@ def write_report(documents: list[dict], out: Path) -> None:
                 f"falls {v[3]:.2f} / {v[4]:.2f}" for p, v in paper.items()), ""]
         lines += _target_lines(scenario, columns) + _difficulty_lines(columns) + [""]
         digest[scenario] = {k: d["summary"] for k, d in columns.items()}
-    plot = out.with_suffix(".png")
-    _plot(groups, plot)
+    page, digest_path, plot = report_outputs(out)
+    atomic_write(plot, lambda tmp: _plot(groups, tmp))
     lines += [f"![success rate and actions per planner]({plot.name})", ""]
-    out.write_text("\n".join(lines))
-    out.with_suffix(".json").write_text(json.dumps(digest, indent=1))
+    atomic_write_text(page, "\n".join(lines))
+    atomic_write_text(digest_path, json.dumps(digest, indent=1))
 
 
 def _plot(groups: dict[str, dict[str, dict]], path: Path) -> None:

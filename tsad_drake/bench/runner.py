@@ -4,24 +4,35 @@ Rows stream to `<out>.rows.jsonl` as episodes finish; a rerun with the same sett
 seeds already there, so an interrupted bench resumes where it stopped. An episode that raises is
 recorded as a failure with its reason. The final `<out>` JSON (rows + summary + machine) is
 written atomically once every episode is in.
+
+Workers: each pins its CPU threads and asks the kernel to kill it when the bench's main process
+dies (Linux `PR_SET_PDEATHSIG`), so a killed bench leaves no worker behind; workers ignore SIGINT,
+and the main process answers Ctrl-C by killing them at once: finished rows stay in the rows file,
+the episodes that were running are run again on resume.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
+import ctypes
 import dataclasses as dc
 import datetime as _dt
 import json
 import multiprocessing as mp
 import os
 import platform
+import signal
+import sys
 import time
 import traceback
 from pathlib import Path
 
 from tsad_drake.bench.metrics import summarise
+from tsad_drake.errors import InputFileError, RunFailure, UsageError
+from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.prehensile.checkpoint import weights_digest
+from tsad_drake.runtime import pin_threads
 from tsad_drake.scenario import Scenario, scene_digest
 from tsad_drake.scenes import generate_scenario
 
@@ -90,23 +101,61 @@ def machine_info() -> dict:
             "date": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")}
 
 
+def rows_path_of(out: Path) -> Path:
+    """The rows file that streams beside bench result `out`."""
+    return out.with_name(out.name + ".rows.jsonl")
+
+
+def is_bench_result(path: Path) -> bool:
+    """Whether `path` holds a `tsad bench` result (so a rerun may replace it)."""
+    try:
+        document = json.loads(path.read_text(encoding="utf-8", errors="replace"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(document, dict) and {"spec", "rows", "summary"} <= set(document)
+
+
+def check_bench_out(path: str | Path) -> Path:
+    """Check `--out` and its rows file before any episode runs: a file path in a writable folder,
+    and an existing file only replaced when it is a bench result."""
+    out = prepare_out_file(path, may_replace=is_bench_result, kind="a `tsad bench` result")
+    rows = rows_path_of(out)
+    if rows.exists() and not rows.is_file():
+        raise UsageError(f"{rows} (the rows file of --out) exists and is not a regular file")
+    return out
+
+
+def _valid_row(row) -> bool:
+    """A row as `run_spec` writes it (anything else in the rows file is skipped and run again)."""
+    return (isinstance(row, dict) and isinstance(row.get("seed"), int)
+            and isinstance(row.get("success"), bool) and isinstance(row.get("num_actions"), int)
+            and isinstance(row.get("falls"), int)
+            and isinstance(row.get("planning_time_s"), (int, float)))
+
+
 def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     """Rows of `path` that belong to this run: same settings and the same scene (the row's recorded
     scene digest; a row from before a generator change, or from before rows recorded the digest,
     is run again); a network row must record the shipped weights' digest (a row of other weights,
-    or from before rows recorded it, is run again)."""
+    or from before rows recorded it, is run again). Lines that are not rows (cut off by an
+    interruption, `null`, edited by hand) are skipped: those episodes run again."""
     if not path.exists():
         return {}
-
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as err:
+        raise InputFileError(f"cannot read bench rows {path}: {err.strerror}") from None
     by_seed = {s.seed: s for s in specs}
     wanted = specs[0].key()
     defaults = {f.name: f.default for f in dc.fields(EpisodeSpec)}  # keys added since a row
     done, current = {}, ""  # current: the shipped weights' digest, read when a row has one
-    for line in path.read_text().splitlines():
+    for line in text.splitlines():
         try:
             row = json.loads(line)
-        except json.JSONDecodeError:
+        except ValueError:
             continue  # a line cut off by an interruption
+        if not _valid_row(row):
+            continue
         if (tuple(row.get(k, defaults.get(k)) for k in SPEC_KEYS) != wanted
                 or row.get("seed") not in by_seed):
             continue
@@ -120,22 +169,61 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     return done
 
 
-def _init_worker() -> None:
-    os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
-    try:
-        import torch
+#: Linux prctl option: the signal a process gets when the thread that started it exits
+PR_SET_PDEATHSIG = 1
 
-        torch.set_num_threads(1)
-    except ImportError:
-        pass
+
+def _init_worker(threads: int = 1, parent_pid: int | None = None) -> None:
+    """Worker start: pinned threads, dies with the bench's main process, leaves SIGINT to it."""
+    os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
+    pin_threads(threads)
+    if parent_pid is None:
+        return
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C: the main process stops the workers
+    if sys.platform.startswith("linux"):
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    if os.getppid() != parent_pid:  # the main process died before the line above
+        os._exit(1)
+
+
+def _kill_workers(pool: cf.ProcessPoolExecutor) -> None:
+    """Kill the pool's workers now and drop the queued episodes (no public handle before 3.14)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
+        process.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.join(timeout=10)
+
+
+def _run_pool(todo: list[EpisodeSpec], workers: int, threads: int, record) -> None:
+    ctx = mp.get_context("spawn")
+    pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
+                                  initargs=(threads, os.getpid()))
+    try:
+        futures = [pool.submit(run_spec, s) for s in todo]
+        for fut in cf.as_completed(futures):
+            record(fut.result())
+    except BaseException:
+        _kill_workers(pool)
+        raise
+    pool.shutdown()
 
 
 def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
-              progress: bool = True) -> dict:
-    """Run `specs` (same settings, different seeds), streaming rows; return the result document."""
+              progress: bool = True, threads: int = 1) -> dict:
+    """Run `specs` (same settings, different seeds), streaming rows; return the result document.
+
+    Raises:
+        KeyboardInterrupt: on Ctrl-C, once the workers are gone; its message says how many
+            episodes are kept in the rows file.
+        RunFailure: a worker process died (killed, out of memory); finished rows are kept.
+    """
     from tqdm import tqdm
 
-    rows_path = out.with_name(out.name + ".rows.jsonl")
+    out = Path(out)
+    folder = OutputDir(out.parent)
+    rows_path = rows_path_of(out)
     done = _load_rows(rows_path, specs)
     if rows_path.exists() and rows_path.stat().st_size:
         with rows_path.open("rb+") as f:  # end a line cut off by an interruption before appending
@@ -148,29 +236,29 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
 
     def record(row: dict) -> None:
         done[row["seed"]] = row
-        with rows_path.open("a") as f:
-            f.write(json.dumps(row) + "\n")
+        folder.append_line(rows_path.name, json.dumps(row))
         ok = sum(r["success"] for r in done.values())
         bar.set_postfix(success=f"{ok}/{len(done)}")
         bar.update(1)
 
-    if workers <= 1:
-        _init_worker()
-        for spec in todo:
-            record(run_spec(spec))
-    else:
-        ctx = mp.get_context("spawn")
-        with cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                    initializer=_init_worker) as pool:
-            futures = [pool.submit(run_spec, s) for s in todo]
-            for fut in cf.as_completed(futures):
-                record(fut.result())
-    bar.close()
+    kept = f"of {len(specs)} episodes kept in {rows_path}; run the same command again to resume"
+    try:
+        if workers <= 1:
+            _init_worker(threads)
+            for spec in todo:
+                record(run_spec(spec))
+        else:
+            _run_pool(todo, workers, threads, record)
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(f"{len(done)} {kept}") from None
+    except cf.process.BrokenProcessPool:
+        raise RunFailure(f"a bench worker process died (killed or out of memory); "
+                         f"{len(done)} {kept}") from None
+    finally:
+        bar.close()
     rows = [done[s.seed] for s in specs]
     document = {"spec": {k: getattr(specs[0], k) for k in SPEC_KEYS},
-                "seeds": [s.seed for s in specs], "machine": machine_info(),
+                "seeds": [s.seed for s in specs], "machine": machine_info(), "threads": threads,
                 "summary": summarise(rows), "rows": rows}
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(json.dumps(document, indent=1))
-    tmp.replace(out)
+    atomic_write_text(out, json.dumps(document, indent=1))
     return document

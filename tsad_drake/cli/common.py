@@ -1,14 +1,23 @@
-"""Helpers every `tsad` command shares: the parser that exits with status 2, scenario and output
-arguments."""
+"""Helpers every `tsad` command shares: the parser that exits with status 2, scenario, seed and
+thread arguments, and the range checks every number on the command line passes before any work."""
 
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from pathlib import Path
 
 from tsad_drake.errors import EXIT_BAD_INPUT, UsageError
+
+#: largest seed accepted anywhere (numpy, torch and the generator all take it)
+MAX_SEED = 2**31 - 1
+#: built-in scenarios that have an occluded variant (the `real` shelf holds too few objects to
+#: hide its target behind a front row: the generator would search for 30 s and give up)
+OCCLUDED_SCENARIOS = ("1", "2", "3")
+#: largest --threads
+MAX_THREADS = 64
 
 
 class Parser(argparse.ArgumentParser):
@@ -17,39 +26,60 @@ class Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_BAD_INPUT)
 
 
+def check_int(option: str, value: int, low: int, high: int) -> int:
+    """`value` when low <= value <= high; UsageError naming `option` otherwise."""
+    if not low <= value <= high:
+        raise UsageError(f"{option} must be between {low} and {high}, got {value}")
+    return value
+
+
+def check_float(option: str, value: float, low: float, high: float) -> float:
+    """`value` when it is finite and low < value <= high; UsageError otherwise."""
+    if not (math.isfinite(value) and low < value <= high):
+        raise UsageError(f"{option} must be a finite number above {low:g} and at most {high:g}, "
+                         f"got {value}")
+    return value
+
+
+def check_seeds(option: str, first: int, count: int = 1) -> None:
+    """Seeds first..first+count-1 all within [0, MAX_SEED]."""
+    check_int(option, first, 0, MAX_SEED)
+    if first + count - 1 > MAX_SEED:
+        raise UsageError(f"{option} {first} with {count} scenes runs past the largest seed {MAX_SEED}")
+
+
+def is_builtin(spec: str) -> bool:
+    from tsad_drake.scenario_generator import BUILTIN_SCENARIOS
+
+    return spec in BUILTIN_SCENARIOS
+
+
+def check_occluded(scenario: str, occluded: bool) -> None:
+    """--occluded only with a built-in scenario that has an occluded variant."""
+    if occluded and scenario not in OCCLUDED_SCENARIOS:
+        what = "a scenario YAML file" if not is_builtin(scenario) else f"scenario {scenario}"
+        raise UsageError(f"--occluded generates scenes of scenario {', '.join(OCCLUDED_SCENARIOS)}; "
+                         f"it does not apply to {what}")
+
+
+def check_scenario_args(args: argparse.Namespace) -> None:
+    """--seed in range and --occluded where it applies (the arguments of `add_scenario_args`)."""
+    check_seeds("--seed", args.seed)
+    check_occluded(args.scenario, args.occluded)
+
+
 def resolve_scenario(spec: str, seed: int, occluded: bool = False):
     """A built-in scenario name ("1", "2", "3", "real") with a seed, or a scenario YAML path."""
     from tsad_drake.scenario import load_scenario
     from tsad_drake.scenes import BUILTIN_SCENARIOS, generate_scenario
 
     if spec in BUILTIN_SCENARIOS:
-        if seed < 0:
-            raise UsageError("--seed must be non-negative")
+        check_seeds("--seed", seed)
         return generate_scenario(spec, seed, occluded=occluded)
-    if spec.endswith((".yaml", ".yml")) or os.sep in spec or Path(spec).exists():
+    if spec.strip() and (spec.endswith((".yaml", ".yml")) or os.sep in spec or Path(spec).exists()):
         return load_scenario(spec)
     raise UsageError(f"unknown scenario {spec!r}: use one of {', '.join(BUILTIN_SCENARIOS)} "
                      "or the path of a scenario YAML file")
-
-
-def prepare_out_dir(path: str | Path) -> Path:
-    """Create the output directory and prove it is writable before any work is done."""
-    out = Path(path)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".tsad_write_probe"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as err:
-        raise UsageError(f"cannot write to output directory {out}: {err.strerror}") from None
-    return out
-
-
-def prepare_out_file(path: str | Path) -> Path:
-    """Make sure the parent of an output file exists and is writable."""
-    out = Path(path)
-    prepare_out_dir(out.parent if str(out.parent) else ".")
-    return out
 
 
 def add_scenario_args(p: argparse.ArgumentParser) -> None:
@@ -57,6 +87,27 @@ def add_scenario_args(p: argparse.ArgumentParser) -> None:
                    help="built-in scenario 1, 2, 3 or real, or the path of a scenario YAML file "
                         "(as written by `tsad scene`)")
     p.add_argument("--seed", type=int, default=0,
-                   help="seed of the generated scene for a built-in scenario (default 0)")
+                   help="seed of the generated scene for a built-in scenario, and of the planner "
+                        f"(0 to {MAX_SEED}; default 0)")
     p.add_argument("--occluded", action="store_true",
-                   help="generate a scene whose target is fully hidden from every view")
+                   help="generate a scene whose target is fully hidden from every view "
+                        f"(scenarios {', '.join(OCCLUDED_SCENARIOS)})")
+
+
+def thread_count(text: str) -> int:
+    """argparse type of --threads: an integer from 1 to MAX_THREADS (checked while parsing, since
+    the threads are pinned before the command starts)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if not 1 <= value <= MAX_THREADS:
+        raise argparse.ArgumentTypeError(f"must be between 1 and {MAX_THREADS}, got {value}")
+    return value
+
+
+def add_threads_arg(p: argparse.ArgumentParser, default: int = 1) -> None:
+    p.add_argument("--threads", type=thread_count, default=default,
+                   help="CPU threads for torch and the BLAS libraries (per worker process), so "
+                        "time budgets and plans do not depend on the machine's load "
+                        f"(default {default})")

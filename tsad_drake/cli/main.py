@@ -14,11 +14,12 @@ import sys
 from tsad_drake.cli.common import (
     Parser,
     add_scenario_args,
-    prepare_out_dir,
-    prepare_out_file,
+    check_scenario_args,
     resolve_scenario,
 )
-from tsad_drake.errors import EXIT_BAD_INPUT, UsageError
+from tsad_drake.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, RunFailure, UsageError
+from tsad_drake.outputs import prepare_out_dir, prepare_out_file
+from tsad_drake.runtime import pin_threads
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -57,8 +58,9 @@ def build_parser() -> argparse.ArgumentParser:
 def cmd_scene(args: argparse.Namespace) -> int:
     from tsad_drake.scenario import save_scenario
 
-    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    check_scenario_args(args)
     out = prepare_out_file(args.out)
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     save_scenario(scenario, out)
     print(f"wrote {out}: scenario {scenario.name} seed {scenario.seed}, "
           f"{len(scenario.objects)} objects, target {scenario.target}")
@@ -68,19 +70,23 @@ def cmd_scene(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     from tsad_drake.render_output import render_and_write
 
-    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    check_scenario_args(args)
     out = prepare_out_dir(args.out)
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     render_and_write(scenario, out, args.segmentation)
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one `tsad` command; returns its exit status (0 done, 1 a failure that is a result,
+    2 bad input, 130 interrupted)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    pin_threads(getattr(args, "threads", 1))  # before numpy, torch or Drake load where possible
     os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
     import pydrake.common  # noqa: F401  (hooks the "drake" logger's level to Drake's own)
 
     logging.getLogger("drake").setLevel(logging.WARNING)  # Drake's INFO lines are not for users
-    parser = build_parser()
-    args = parser.parse_args(argv)
     from tsad_drake.cli.net import NET_COMMANDS
     from tsad_drake.cli.plan import PLAN_COMMANDS
 
@@ -90,7 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     except UsageError as err:
         print(f"tsad: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("tsad: interrupted", file=sys.stderr)
-        return 130
-
+    except KeyboardInterrupt as err:
+        print(f"tsad: interrupted{f': {err}' if str(err) else ''}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (RunFailure, OSError) as err:  # a worker killed, the disk full while the command ran
+        print(f"tsad: error: {err}", file=sys.stderr)
+        return 1

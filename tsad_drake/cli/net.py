@@ -11,15 +11,12 @@ import argparse
 import json
 from pathlib import Path
 
-from tsad_drake.cli.common import prepare_out_dir, prepare_out_file
+from tsad_drake.cli.common import add_threads_arg, check_float, check_int, check_seeds
 from tsad_drake.errors import UsageError
+from tsad_drake.outputs import atomic_write_text, prepare_out_dir, prepare_out_file
 
 OBSERVERS = ("raycast", "drake")
-
-
-def _positive(name: str, value: int) -> None:
-    if value < 1:
-        raise UsageError(f"{name} must be at least 1")
+MAX_SCENES = 100_000  #: largest --scenes
 
 
 def add_net_parsers(sub) -> None:
@@ -39,6 +36,7 @@ def add_net_parsers(sub) -> None:
                    help="raycast: the NumPy ray caster (fast, same camera and pipeline; default); "
                         "drake: render depth with the Drake station (VTK)")
     p.add_argument("--shard-size", type=int, default=20, help="scenes per shard file (default 20)")
+    add_threads_arg(p)
 
     p = sub.add_parser("train", help="train the prehensile network on CPU; keep the best checkpoint",
                        description=(
@@ -55,7 +53,7 @@ def add_net_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--max-minutes", type=float, default=30.0,
                    help="wall-clock limit in minutes (default 30)")
-    p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    add_threads_arg(p, default=2)
 
     p = sub.add_parser("net-calibrate", help="re-tune a weights file's decision thresholds",
                        description=(
@@ -67,6 +65,7 @@ def add_net_parsers(sub) -> None:
                            "`tsad train` ends with the same step."))
     p.add_argument("--weights", required=True, help="weights file to update in place (.pt)")
     p.add_argument("--scenes", type=int, default=16, help="calibration scenes (default 16)")
+    add_threads_arg(p)
 
     p = sub.add_parser("net-eval", help="score the network against the oracle on fresh scenes",
                        description=(
@@ -81,36 +80,41 @@ def add_net_parsers(sub) -> None:
     p.add_argument("--observer", choices=OBSERVERS, default="raycast",
                    help="raycast (default) or drake rendering")
     p.add_argument("--out", default=None, help="also write the JSON to this file")
+    add_threads_arg(p)
 
 
 def cmd_dataset(args: argparse.Namespace) -> int:
-    from tsad_drake.prehensile.dataset import generate_dataset
+    from tsad_drake.prehensile.dataset import dataset_shards, generate_dataset, load_dataset
 
-    _positive("--scenes", args.scenes)
-    _positive("--shard-size", args.shard_size)
-    if args.seed_start < 0:
-        raise UsageError("--seed-start must be non-negative")
+    check_int("--scenes", args.scenes, 1, MAX_SCENES)
+    check_int("--shard-size", args.shard_size, 1, 10_000)
+    check_seeds("--seed-start", args.seed_start, args.scenes)
     out = prepare_out_dir(args.out)
-    summary = generate_dataset(out, args.scenes, args.seed_start, args.observer, args.shard_size)
+    if dataset_shards(out.root):
+        load_dataset(out.root)  # shards of an earlier run are resumed: one bad shard is one line
+    summary = generate_dataset(out.root, args.scenes, args.seed_start, args.observer,
+                               args.shard_size)
     print(json.dumps(summary))
     return 0
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    from tsad_drake.prehensile.dataset import load_dataset
     from tsad_drake.prehensile.training import train
 
-    _positive("--epochs", args.epochs)
-    _positive("--batch", args.batch)
-    _positive("--threads", args.threads)
-    if not args.lr > 0 or not args.max_minutes > 0:
-        raise UsageError("--lr and --max-minutes must be positive")
+    check_int("--epochs", args.epochs, 1, 10_000)
+    check_int("--batch", args.batch, 1, 4096)
+    check_seeds("--seed", args.seed)
+    check_float("--lr", args.lr, 0.0, 1.0)
+    check_float("--max-minutes", args.max_minutes, 0.0, 7 * 24 * 60)
     data = Path(args.data)
-    if not data.is_dir() or not any(data.glob("shard_*.npz")):
-        raise UsageError(f"no dataset shards in {data} (generate them with `tsad dataset`)")
+    if not data.is_dir():
+        raise UsageError(f"--data {data} is not a directory (generate one with `tsad dataset`)")
     out = prepare_out_file(args.out)
+    samples = load_dataset(data)
     try:
         summary = train(data, out, args.epochs, args.batch, args.lr, args.seed, args.max_minutes,
-                        args.threads)
+                        args.threads, samples=samples)
     except ValueError as err:
         raise UsageError(str(err)) from None
     print(json.dumps({k: v for k, v in summary.items() if k != "history"}))
@@ -121,8 +125,9 @@ def cmd_net_calibrate(args: argparse.Namespace) -> int:
     from tsad_drake.prehensile.checkpoint import load_checkpoint
     from tsad_drake.prehensile.training import calibrate_thresholds
 
-    _positive("--scenes", args.scenes)
+    check_int("--scenes", args.scenes, 1, 10_000)
     load_checkpoint(args.weights)  # one clear line on a missing or bad file
+    prepare_out_file(args.weights, option="--weights")  # updated in place: writable?
     print(json.dumps(calibrate_thresholds(Path(args.weights), args.scenes)))
     return 0
 
@@ -132,9 +137,8 @@ def cmd_net_eval(args: argparse.Namespace) -> int:
     from tsad_drake.prehensile.feasibility import NetFeasibility
     from tsad_drake.prehensile.training import evaluate_scenes, format_table
 
-    _positive("--scenes", args.scenes)
-    if args.seed_start < 0:
-        raise UsageError("--seed-start must be non-negative")
+    check_int("--scenes", args.scenes, 1, MAX_SCENES)
+    check_seeds("--seed-start", args.seed_start, args.scenes)
     _, meta = load_checkpoint(args.weights)  # one clear line on a missing or bad file
     last = args.seed_start + args.scenes - 1
     used = [("training", meta.get("seed_range")), ("calibration", meta.get("calibration", {}).get("seeds"))]
@@ -147,11 +151,12 @@ def cmd_net_eval(args: argparse.Namespace) -> int:
                              args.seed_start, args.observer)
     result["weights"] = str(args.weights or "shipped")
     result["seeds"] = [args.seed_start, args.seed_start + args.scenes - 1]
+    result["threads"] = args.threads
     print(format_table(result))
     text = json.dumps(result, indent=1)
     print(text)
     if out:
-        out.write_text(text + "\n")
+        atomic_write_text(out, text + "\n")
     return 0
 
 

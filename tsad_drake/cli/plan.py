@@ -6,8 +6,16 @@ import argparse
 import json
 from pathlib import Path
 
-from tsad_drake.cli.common import prepare_out_dir, prepare_out_file, resolve_scenario
+from tsad_drake.cli.common import (
+    add_threads_arg,
+    check_int,
+    check_occluded,
+    check_scenario_args,
+    check_seeds,
+    resolve_scenario,
+)
 from tsad_drake.errors import UsageError
+from tsad_drake.outputs import prepare_out_dir, prepare_out_file
 
 PLANNER_NAMES = ("tsad", "gp3", "rots", "rots-star", "rots-star-search", "optimal")
 FEASIBILITY_NAMES = ("net", "geometric", "oracle")
@@ -16,6 +24,9 @@ DEFAULT_FEASIBILITY = {"tsad": "net", "optimal": "oracle"}
 ABLATIONS = ("none", "no-ro", "no-re")
 OBSERVERS = ("drake", "raycast")
 WORLD_NAMES = ("geometric", "physics")
+MAX_ACTIONS = 100  #: largest --max-actions
+MAX_EPISODES = 10_000  #: largest --episodes
+MAX_WORKERS = 64  #: largest --workers
 
 
 def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
@@ -31,7 +42,8 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
                         "swept volume against perceived point clouds; default for gp3 and the "
                         "rots planners) or oracle (true geometry; default for optimal)")
     p.add_argument("--ablation", default="none", choices=ABLATIONS,
-                   help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none)")
+                   help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none; "
+                        "only for planners with reward ablations: tsad)")
     p.add_argument("--observer", default=default_observer, choices=OBSERVERS,
                    help="how the robot observes: drake renders depth in the Drake station (VTK), "
                         "raycast renders the same camera with the NumPy ray caster "
@@ -39,13 +51,14 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
     p.add_argument("--open-loop", action="store_true",
                    help="execute the whole plan without observing again after each sub-search")
     p.add_argument("--max-actions", type=int, default=12,
-                   help="episode limit on pick-and-place actions (default 12)")
+                   help=f"episode limit on pick-and-place actions (1 to {MAX_ACTIONS}; default 12)")
     p.add_argument("--world", default="geometric", choices=WORLD_NAMES,
                    help="what executes and judges the actions: geometric (the 2-D corridor "
                         "rule) or physics (each action a Drake contact simulation of the "
                         "station, planned on the perceived poses and re-observed from the "
                         "simulated state; implies --motion and --observer drake; about "
                         "5-10 s of wall time per action)")
+    add_threads_arg(p)
 
 
 def add_plan_parsers(sub, add_scenario_args) -> None:
@@ -71,7 +84,8 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                            "summary to FILE.json. Rows stream to FILE.json.rows.jsonl, so an "
                            "interrupted bench resumes where it stopped."))
     p.add_argument("--scenario", required=True, help="built-in scenario 1, 2, 3 or real")
-    p.add_argument("--episodes", type=int, default=30, help="number of episodes (default 30)")
+    p.add_argument("--episodes", type=int, default=30,
+                   help=f"number of episodes (1 to {MAX_EPISODES}; default 30)")
     p.add_argument("--seed-start", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--occluded", action="store_true",
                    help="scenes with the target fully hidden (the paper's section VI-D)")
@@ -81,7 +95,8 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                         "`tsad plan --motion`); rows and summary report the share of checked "
                         "actions that were motion-feasible")
     p.add_argument("--workers", type=int, default=1,
-                   help="episodes run in this many parallel processes (default 1)")
+                   help=f"episodes run in this many parallel processes (1 to {MAX_WORKERS}; "
+                        "default 1)")
     p.add_argument("--out", required=True, help="result JSON file")
 
     p = sub.add_parser("report", help="collect bench JSON files into a results page",
@@ -91,12 +106,17 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
     p.add_argument("--out", required=True, help="markdown file to write (plot and JSON beside it)")
 
 
-def _validate_common(args: argparse.Namespace) -> None:
+def _check_planner_args(args: argparse.Namespace) -> None:
+    """The flags `plan` and `bench` share, checked before any work; the network's weights are
+    loaded once here so a missing or bad file is one line, not a failure in every episode."""
+    from tsad_drake.planning.registry import get_planner
 
     if args.feasibility is None:
         args.feasibility = DEFAULT_FEASIBILITY.get(args.planner, "geometric")
-    if args.max_actions <= 0:
-        raise UsageError("--max-actions must be at least 1")
+    check_int("--max-actions", args.max_actions, 1, MAX_ACTIONS)
+    if args.ablation != "none" and not get_planner(args.planner).ablations:
+        raise UsageError(f"--ablation {args.ablation} applies to planners with reward ablations "
+                         f"(tsad), not to {args.planner}")
     if args.feasibility == "net":
         from tsad_drake.prehensile.checkpoint import load_checkpoint
 
@@ -104,20 +124,19 @@ def _validate_common(args: argparse.Namespace) -> None:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    _validate_common(args)
+    check_scenario_args(args)
+    _check_planner_args(args)
     from tsad_drake.pipeline import EpisodeSettings, plan_episode
 
-    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     out = prepare_out_dir(args.out)
+    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
                                ablation=args.ablation, observer=args.observer,
                                closed_loop=not args.open_loop, max_actions=args.max_actions,
                                motion=args.motion or args.world == "physics", world=args.world)
     result = plan_episode(scenario, args.seed, settings, out)
-    path = out / "plan.json"
-    tmp = path.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(result, indent=2))
-    tmp.replace(path)
+    result["threads"] = args.threads
+    path = out.write_text("plan.json", json.dumps(result, indent=2))
     print(f"planner {args.planner} ({args.feasibility}) on scenario {scenario.name} seed "
           f"{args.seed}: theta* = {result.get('theta_star_deg')} deg")
     for i, a in enumerate(result["actions"]):
@@ -164,27 +183,25 @@ def physics_line(m: dict) -> str:
 
 def cmd_bench(args: argparse.Namespace) -> int:
     from tsad_drake.bench.metrics import paper_table
-    from tsad_drake.bench.runner import EpisodeSpec, run_bench
+    from tsad_drake.bench.runner import EpisodeSpec, check_bench_out, run_bench
     from tsad_drake.scenes import BUILTIN_SCENARIOS
 
-    _validate_common(args)
     if args.scenario not in BUILTIN_SCENARIOS:
         raise UsageError(f"unknown scenario {args.scenario!r}: bench runs built-in scenarios "
                          f"{', '.join(BUILTIN_SCENARIOS)}")
-    if args.episodes <= 0:
-        raise UsageError("--episodes must be at least 1")
-    if args.workers <= 0:
-        raise UsageError("--workers must be at least 1")
-    if args.seed_start < 0:
-        raise UsageError("--seed-start must be non-negative")
-    out = prepare_out_file(args.out)
+    check_occluded(args.scenario, args.occluded)
+    check_int("--episodes", args.episodes, 1, MAX_EPISODES)
+    check_int("--workers", args.workers, 1, MAX_WORKERS)
+    check_seeds("--seed-start", args.seed_start, args.episodes)
+    _check_planner_args(args)
+    out = check_bench_out(args.out)
     specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
                          feasibility=args.feasibility, ablation=args.ablation,
                          observer=args.observer, occluded=args.occluded,
                          closed_loop=not args.open_loop,
                          motion=args.motion or args.world == "physics", world=args.world)
              for i in range(args.episodes)]
-    document = run_bench(specs, out, workers=args.workers)
+    document = run_bench(specs, out, workers=args.workers, threads=args.threads)
     label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"
     print(paper_table({label: document["summary"]}))
     print(f"wrote {out}")
@@ -192,17 +209,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from tsad_drake.bench.report import write_report
+    from tsad_drake.bench.report import load_bench_document, report_outputs, write_report
 
-    documents = []
-    for name in args.inputs:
-        try:
-            documents.append(json.loads(Path(name).read_text()))
-        except (OSError, json.JSONDecodeError) as err:
-            raise UsageError(f"cannot read bench result {name}: {err}") from None
-        if "summary" not in documents[-1] or "spec" not in documents[-1]:
-            raise UsageError(f"{name} is not a `tsad bench` result")
     out = prepare_out_file(args.out)
+    inputs = {Path(name).resolve() for name in args.inputs}
+    for path in report_outputs(out):
+        if path.resolve() in inputs:
+            raise UsageError(f"--out {out} would overwrite the input {path}: choose another name")
+    documents = [load_bench_document(name) for name in args.inputs]
     write_report(documents, out)
     print(f"wrote {out}")
     return 0

@@ -10,8 +10,10 @@ what the verifier checked. `validate_motion_section` is the schema, as a functio
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 from pydrake.geometry import Meshcat, MeshcatVisualizer
@@ -20,8 +22,9 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
 from tsad_drake.motion.verify import ActionMotion
+from tsad_drake.outputs import OutputDir
 from tsad_drake.planning.types import Action
-from tsad_drake.scenario import ObjectConfig, Scenario
+from tsad_drake.scenario import ObjectConfig, Scenario, check_object_name
 from tsad_drake.station import HOME_Q, StationConfig
 from tsad_drake.station_models import (
     FINGER_JOINTS,
@@ -180,31 +183,44 @@ def _shape_sdf(shape: str, size) -> str:
 
 def _link_sdf(name: str, mass: float, parts: list[tuple[str, tuple, tuple, str]]) -> str:
     """A link with one collision and one visual per (name, pose xyz, size-or-radius, shape)."""
-    body = [f'  <link name="{name}">', f"    <inertial><mass>{float(mass)!r}</mass>"
+    body = [f"  <link name={quoteattr(name)}>", f"    <inertial><mass>{float(mass)!r}</mass>"
             "<inertia><ixx>0.001</ixx><iyy>0.001</iyy><izz>0.001</izz></inertia></inertial>"]
     for part, xyz, size, shape in parts:
         pose = f"<pose>{float(xyz[0])!r} {float(xyz[1])!r} {float(xyz[2])!r} 0 0 0</pose>"
         geometry = f"<geometry>{_shape_sdf(shape, size)}</geometry>"
-        body.append(f'    <collision name="{part}">{pose}{geometry}</collision>')
-        body.append(f'    <visual name="{part}_visual">{pose}{geometry}</visual>')
+        body.append(f"    <collision name={quoteattr(part)}>{pose}{geometry}</collision>")
+        body.append(f"    <visual name={quoteattr(part + '_visual')}>{pose}{geometry}</visual>")
     body.append("  </link>")
-    return ('<?xml version="1.0"?>\n<sdf version="1.9">\n<model name="{}">\n{}\n</model>\n'
-            '</sdf>\n').format(name, "\n".join(body))
+    return ('<?xml version="1.0"?>\n<sdf version="1.9">\n<model name={}>\n{}\n</model>\n'
+            '</sdf>\n').format(quoteattr(name), "\n".join(body))
 
 
-def write_scene_directives(scenario: Scenario, out_dir: str | Path,
+def _yaml_quoted(text: str) -> str:
+    """`text` as a double-quoted YAML scalar (a name like `yes` or `1e3` stays a string; quotes,
+    backslashes and control characters escaped as in JSON, which YAML reads the same way)."""
+    return json.dumps(text, ensure_ascii=False)
+
+
+def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
                            X_WS: RigidTransform | None = None) -> Path:
     """Write `scene.dmd.yaml` (+ package.xml, shelf/ground/object SDFormat files) into out_dir.
 
     Load it with stock pydrake: a PackageMap holding the project's models/package.xml and
     out_dir/package.xml (package `tsad_drake_scene`), then ProcessModelDirectives(
     LoadModelDirectives(path), plant, parser). The objects are free bodies with their scenario
-    poses as default free-body poses; the arm starts at HOME_Q, the fingers open.
+    poses as default free-body poses; the arm starts at HOME_Q, the fingers open. Object names
+    must be safe identifiers (`scenario.check_object_name`, ScenarioError otherwise); they become
+    file names through `OutputDir` (a name that would leave out_dir is refused) and are quoted in
+    the SDFormat and YAML text.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    for k, obj in enumerate(scenario.objects):  # also for scenarios that were never validated
+        check_object_name(f"objects[{k}].name", obj.name)
+    if not isinstance(out_dir, OutputDir):
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+        out_dir = OutputDir(out_dir)
+    out = out_dir
     X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
-    (out / "package.xml").write_text(
+    out.write_text("package.xml",
         f'<?xml version="1.0"?>\n<package format="2">\n  <name>{SCENE_PACKAGE}</name>\n'
         "  <version>0.1.0</version>\n  <description>Generated tsad_drake scene</description>\n"
         '  <maintainer email="tsad-drake@example.com">tsad_drake</maintainer>\n'
@@ -212,8 +228,8 @@ def write_scene_directives(scenario: Scenario, out_dir: str | Path,
     panels = [(name, (p.x, p.y, (p.z0 + p.z1) / 2), (*p.size, p.z1 - p.z0), "box")
               for name, p in zip(("floor", "back", "left", "right", "top"),
                                  shelf_prisms(scenario.shelf), strict=True)]
-    (out / "shelf.sdf").write_text(_link_sdf("shelf", 10.0, panels))
-    (out / "ground.sdf").write_text(_link_sdf("ground", 1.0, [
+    out.write_text("shelf.sdf", _link_sdf("shelf", 10.0, panels))
+    out.write_text("ground.sdf", _link_sdf("ground", 1.0, [
         ("ground", (0.0, 0.0, -0.01), (4.0, 4.0, 0.02), "box")]))
     arm = ", ".join(f"{j}: [{float(q)!r}]" for j, q in zip(UR5E_JOINTS, HOME_Q, strict=True))
     fingers = ", ".join(f"{j}: [{float(FINGER_OPEN)!r}]" for j in FINGER_JOINTS)
@@ -231,17 +247,17 @@ def write_scene_directives(scenario: Scenario, out_dir: str | Path,
              "- add_weld: {parent: world, child: 'shelf::shelf', X_PC: {translation: "
              f"[{float(p_WS[0])!r}, {float(p_WS[1])!r}, {float(p_WS[2])!r}]}}}}"]
     for obj in scenario.objects:
-        (out / f"{obj.name}.sdf").write_text(_link_sdf(obj.name, obj.mass, [
+        sdf = out.write_text(f"{obj.name}.sdf", _link_sdf(obj.name, obj.mass, [
             (obj.name, (0.0, 0.0, 0.0), tuple(obj.size), obj.shape)]))
         p = (X_WS @ X_SO(obj)).translation()
+        name = _yaml_quoted(obj.name)
+        url = _yaml_quoted(f"package://{SCENE_PACKAGE}/{sdf.name}")
         lines.append(
-            f"- add_model: {{name: {obj.name}, file: 'package://{SCENE_PACKAGE}/{obj.name}.sdf', "
-            f"default_free_body_pose: {{{obj.name}: {{base_frame: world, translation: "
+            f"- add_model: {{name: {name}, file: {url}, "
+            f"default_free_body_pose: {{{name}: {{base_frame: world, translation: "
             f"[{float(p[0])!r}, {float(p[1])!r}, {float(p[2])!r}], rotation: !Rpy {{deg: "
             f"[0.0, 0.0, {float(math.degrees(obj.yaw))!r}]}}}}}}}}")
-    path = out / "scene.dmd.yaml"
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    return out.write_text("scene.dmd.yaml", "\n".join(lines) + "\n")
 
 
 def actions_from_records(records: list[dict]) -> list[Action]:

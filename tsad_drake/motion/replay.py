@@ -21,6 +21,7 @@ from pydrake.geometry import Meshcat, MeshcatParams
 from tsad_drake.motion.export import SceneLayout
 from tsad_drake.motion.scene import MotionConfig
 from tsad_drake.motion.verify import ActionMotion
+from tsad_drake.outputs import atomic_write_text
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import Scenario
 
@@ -51,9 +52,7 @@ def write_replay_html(scenario: Scenario, actions: list[Action], motions: list[A
             t_end = float(segment.times[-1])
     visualizer.StopRecording()
     visualizer.PublishRecording()
-    out = Path(out_path)
-    out.write_text(meshcat.StaticHtml())
-    return out
+    return atomic_write_text(out_path, meshcat.StaticHtml())
 
 
 def _frame(layout: SceneLayout, t: float) -> None:

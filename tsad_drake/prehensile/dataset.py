@@ -19,8 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
+from tsad_drake.errors import InputFileError
+from tsad_drake.outputs import atomic_write
 from tsad_drake.planning.types import Action, PlanningState
-from tsad_drake.prehensile.encoding import WALL_ID, encode_batch, state_cloud
+from tsad_drake.prehensile.encoding import NUM_FEATURES, WALL_ID, encode_batch, state_cloud
 
 SCENARIO_TYPES = ("1", "2", "3", "real")
 SPLITS = ("train", "val", "test")
@@ -165,12 +167,45 @@ class Samples:
         return Samples(*[np.concatenate([getattr(p, f) for p in parts]) for f in Samples.FIELDS])
 
     def save(self, path: Path) -> None:
-        np.savez_compressed(path, **{f: getattr(self, f) for f in self.FIELDS})
+        """Write the arrays to `path` (.npz) atomically."""
+        atomic_write(path, lambda tmp: np.savez_compressed(
+            tmp, **{f: getattr(self, f) for f in self.FIELDS}))
 
     @staticmethod
     def load(path: Path) -> Samples:
-        with np.load(path) as data:
-            return Samples(*[data[f] for f in Samples.FIELDS])
+        """A shard; InputFileError when it is unreadable, truncated or not a dataset shard."""
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                missing = [f for f in Samples.FIELDS if f not in data.files]
+                if missing:
+                    raise InputFileError(f"dataset shard {path} lacks {', '.join(missing)}")
+                samples = Samples(*[data[f] for f in Samples.FIELDS])
+        except InputFileError:
+            raise
+        except Exception as err:  # noqa: BLE001 - numpy and zipfile raise many kinds for a bad file
+            raise InputFileError(f"cannot read dataset shard {path}: "
+                                 f"{type(err).__name__}") from None
+        problem = samples.problem()
+        if problem:
+            raise InputFileError(f"dataset shard {path} is malformed: {problem}")
+        return samples
+
+    def problem(self) -> str:
+        """What is inconsistent in the arrays ("" when nothing): shapes, kinds, finite points."""
+        n = len(self.reach) if self.reach.ndim == 1 else -1
+        if n < 1 or any(getattr(self, f).ndim < 1 or len(getattr(self, f)) != n
+                        for f in self.FIELDS):
+            return "every field needs one row per query"
+        if (self.xy.ndim != 3 or self.xy.shape[2] != 2 or self.feats.shape[:2] != self.xy.shape[:2]
+                or self.feats.ndim != 3 or self.feats.shape[2] != NUM_FEATURES
+                or self.point_label.shape != self.xy.shape[:2] or self.ids.shape != self.xy.shape[:2]):
+            return "point arrays have the wrong shape"
+        numeric = ("xy", "feats", "point_label", "ids", "scene", "theta")
+        if not all(np.issubdtype(getattr(self, f).dtype, np.number) for f in numeric):
+            return "a numeric field holds something else"
+        if not all(np.isfinite(getattr(self, f)).all() for f in ("xy", "feats", "theta")):
+            return "points or angles are not finite"
+        return ""
 
     def __len__(self) -> int:
         return len(self.reach)
@@ -240,9 +275,7 @@ def generate_dataset(out: Path, scenes: int, seed_start: int, observer: str = "r
             parts = [p for p in (scene_samples(s, observer) for s in range(first, first + count))
                      if p is not None]
             if parts:
-                tmp = path.with_suffix(".tmp.npz")
-                Samples.concat(parts).save(tmp)
-                tmp.replace(path)
+                Samples.concat(parts).save(path)
         bar.update(count)
     bar.close()
     summary = dataset_summary(out)
@@ -250,12 +283,22 @@ def generate_dataset(out: Path, scenes: int, seed_start: int, observer: str = "r
     return summary
 
 
-def load_dataset(directory: Path) -> Samples:
+def dataset_shards(directory: Path) -> list[Path]:
+    """The shard files of a dataset directory (temporary files of an interrupted run left out)."""
     shards = sorted(Path(directory).glob("shard_*.npz"))
-    shards = [s for s in shards if not s.name.endswith(".tmp.npz")]
+    return [s for s in shards if not s.name.endswith(".tmp.npz")]
+
+
+def load_dataset(directory: Path) -> Samples:
+    """Every shard of `directory`, concatenated; InputFileError when there is none or one is bad."""
+    shards = dataset_shards(directory)
     if not shards:
-        raise FileNotFoundError(f"no dataset shards (shard_*.npz) in {directory}")
-    return Samples.concat([Samples.load(s) for s in shards])
+        raise InputFileError(f"no dataset shards (shard_*.npz) in {directory} "
+                             "(generate them with `tsad dataset`)")
+    parts = [Samples.load(s) for s in shards]
+    if len({p.xy.shape[1:] for p in parts}) > 1:
+        raise InputFileError(f"the shards in {directory} hold different numbers of points")
+    return Samples.concat(parts)
 
 
 def dataset_summary(directory: Path) -> dict:

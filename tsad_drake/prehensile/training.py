@@ -142,14 +142,16 @@ def _epoch_entry(epoch: int, running: list[float], val: dict, start: float, prog
 
 def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: float = 2e-3,
           seed: int = 0, max_minutes: float = 30.0, threads: int = 2,
-          progress: bool = True, max_val_samples: int = 3000, calibrate_scenes: int = 16) -> dict:
+          progress: bool = True, max_val_samples: int = 3000, calibrate_scenes: int = 16,
+          samples: pdata.Samples | None = None) -> dict:
     """Train on the shards in `data_dir`, validate each epoch, keep the best checkpoint at `out`.
 
     Stops after `epochs` or once `max_minutes` of wall clock have passed (checked per step); the
     learning rate follows a cosine schedule over the planned steps or the time budget, whichever
     runs out first. Validation uses a fixed subset of at most `max_val_samples` validation queries.
     Finally the decision thresholds are calibrated on `calibrate_scenes` fresh scenes
-    (`calibrate_thresholds`). Returns a summary.
+    (`calibrate_thresholds`). `samples`: the dataset when the caller has loaded (and so checked)
+    it already. Returns a summary.
     """
     from tqdm import tqdm
 
@@ -157,7 +159,7 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     gen = torch.Generator().manual_seed(seed)
-    data = pdata.load_dataset(data_dir)
+    data = samples if samples is not None else pdata.load_dataset(data_dir)  # loaded by the caller
     train_rows, val_rows = _split_rows(data, data_dir, rng, max_val_samples)
     _, _, _, labels, present, _ = to_tensors(data, train_rows[:4000])
     positive = float(labels[present].mean()) if bool(present.any()) else 0.5
