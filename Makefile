@@ -37,9 +37,10 @@ setup: system-deps $(STAMP)
 # WORLD=physics executes every action as a Drake contact simulation instead of the 2-D rule.
 DEMO_FEASIBILITY ?= geometric
 WORLD ?= geometric
+VARIANT ?= full
 demo: setup
 	$(VENV)/bin/tsad plan --scenario 1 --seed 0 --planner tsad --feasibility $(DEMO_FEASIBILITY) \
-	  --observer drake --motion --world $(WORLD) --out out/demo
+	  --variant $(VARIANT) --observer drake --motion --world $(WORLD) --out out/demo
 
 test: setup
 	$(VENV)/bin/pytest -q

@@ -240,6 +240,13 @@ PROBES = [
       for cmd in ("plan", "bench")
       for planner, ablation in (("gp3", "no-ro"), ("rots", "no-re"), ("rots-star", "no-ro"),
                                 ("rots-star-search", "no-re"), ("optimal", "no-ro"))],
+    # -- --variant paper with a planner that has no variants
+    *[(f"variant-{cmd}-{planner}", [cmd, "--scenario", "3", "--planner", planner, "--variant",
+                                    "paper", "--out", "{out}" + ("/b.json" if cmd == "bench" else "")],
+       2, "--variant")
+      for cmd in ("plan", "bench") for planner in ("gp3", "rots-star")],
+    ("variant-unknown", ["plan", "--scenario", "3", "--planner", "tsad", "--variant", "best",
+                         "--out", "{out}"], 2, "--variant"),
     # -- numbers out of range
     ("max-actions-zero", ["plan", "--scenario", "3", "--planner", "gp3", "--max-actions", "0"], 2,
      "--max-actions"),

@@ -103,6 +103,8 @@ def report_outputs(out: Path) -> tuple[Path, Path, Path]:
 
 def _label(spec: dict) -> str:
     label = spec["planner"]
+    if spec.get("variant", "full") != "full":
+        label += f"-{spec['variant']}"
     if spec.get("ablation", "none") != "none":
         label += f" ({spec['ablation']})"
     if spec.get("feasibility") not in (None, "geometric"):

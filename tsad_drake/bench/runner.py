@@ -38,7 +38,7 @@ from tsad_drake.scenes import generate_scenario
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
-             "closed_loop", "motion", "world")
+             "closed_loop", "motion", "world", "variant")
 
 
 @dc.dataclass(frozen=True)
@@ -55,6 +55,7 @@ class EpisodeSpec:
     closed_loop: bool = True
     motion: bool = False  #: verify each action at the motion level before executing it
     world: str = "geometric"  #: geometric | physics (Drake contact simulation of every action)
+    variant: str = "full"  #: full | paper (TSAD's variants)
 
     def key(self) -> tuple:
         return tuple(getattr(self, k) for k in SPEC_KEYS)
@@ -64,7 +65,8 @@ def run_named_episode(spec: EpisodeSpec) -> dict:
     """Bench entry point: an `EpisodeSpec` (built-in scenario name + seed) -> JSON row."""
     scenario = spec_scenario(spec)
     settings = EpisodeSettings(planner=spec.planner, feasibility=spec.feasibility,
-                               ablation=spec.ablation, observer=spec.observer,
+                               ablation=spec.ablation, variant=spec.variant,
+                               observer=spec.observer,
                                closed_loop=spec.closed_loop, motion=spec.motion,
                                world=spec.world)
     row = run_settings(scenario, spec.seed, settings)

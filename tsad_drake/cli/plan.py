@@ -22,6 +22,7 @@ FEASIBILITY_NAMES = ("net", "geometric", "oracle")
 #: --feasibility when none is given (any other planner: geometric)
 DEFAULT_FEASIBILITY = {"tsad": "net", "optimal": "oracle"}
 ABLATIONS = ("none", "no-ro", "no-re")
+VARIANTS = ("full", "paper")
 OBSERVERS = ("drake", "raycast")
 WORLD_NAMES = ("geometric", "physics")
 MAX_ACTIONS = 100  #: largest --max-actions
@@ -41,6 +42,10 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
                         "PointNet++ prehensile network; default for tsad), geometric (gripper "
                         "swept volume against perceived point clouds; default for gp3 and the "
                         "rots planners) or oracle (true geometry; default for optimal)")
+    p.add_argument("--variant", default="full", choices=VARIANTS,
+                   help="TSAD variant: full (every option beyond the paper) or paper (the "
+                        "paper's algorithm exactly; docs/design.md lists each extra); tsad only "
+                        "(default full)")
     p.add_argument("--ablation", default="none", choices=ABLATIONS,
                    help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none; "
                         "only for planners with reward ablations: tsad)")
@@ -117,6 +122,8 @@ def _check_planner_args(args: argparse.Namespace) -> None:
     if args.ablation != "none" and not get_planner(args.planner).ablations:
         raise UsageError(f"--ablation {args.ablation} applies to planners with reward ablations "
                          f"(tsad), not to {args.planner}")
+    if args.variant not in get_planner(args.planner).variants:
+        raise UsageError(f"--variant {args.variant} applies to tsad, not to {args.planner}")
     if args.feasibility == "net":
         from tsad_drake.prehensile.checkpoint import load_checkpoint
 
@@ -131,7 +138,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out)
     scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
-                               ablation=args.ablation, observer=args.observer,
+                               ablation=args.ablation, variant=args.variant,
+                               observer=args.observer,
                                closed_loop=not args.open_loop, max_actions=args.max_actions,
                                motion=args.motion or args.world == "physics", world=args.world)
     result = plan_episode(scenario, args.seed, settings, out)
@@ -197,6 +205,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     out = check_bench_out(args.out)
     specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
                          feasibility=args.feasibility, ablation=args.ablation,
+                         variant=args.variant,
                          observer=args.observer, occluded=args.occluded,
                          closed_loop=not args.open_loop,
                          motion=args.motion or args.world == "physics", world=args.world)

@@ -1,0 +1,33 @@
+"""`tsad plan --variant paper`: the paper's TSAD from the command line, recorded as such."""
+
+import json
+
+from cli_harness import invoke
+
+from tests.planning.test_tsad import load_scene
+from tsad_drake.bench.report import _label
+from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec
+from tsad_drake.planning.tsad_config import EXTRAS
+from tsad_drake.scenario import save_scenario
+
+
+def test_plan_with_the_paper_variant_uses_no_extra(tmp_path, capsys):
+    save_scenario(load_scene("1", 0), tmp_path / "scene.yaml")
+    out = tmp_path / "out"
+    code, stdout, stderr = invoke(capsys, ["plan", "--scenario", str(tmp_path / "scene.yaml"),
+                                   "--planner", "tsad", "--feasibility", "geometric",
+                                   "--observer", "raycast", "--variant", "paper",
+                                   "--out", str(out)])
+    assert code == 0, stderr
+    doc = json.loads((out / "plan.json").read_text())
+    assert doc["success"] and doc["variant"] == "paper"
+    for record in doc["rounds"]:
+        used = record["stats"].get("extras_used", {})
+        assert set(used) <= set(EXTRAS) and not any(used.values()), used
+
+
+def test_bench_rows_of_the_variants_are_kept_apart():
+    paper = EpisodeSpec("1", 0, "tsad", "geometric", variant="paper")
+    assert "variant" in SPEC_KEYS and paper.key() != EpisodeSpec("1", 0, "tsad", "geometric").key()
+    spec = {k: getattr(paper, k) for k in SPEC_KEYS}
+    assert _label(spec) == "tsad-paper" and _label({**spec, "variant": "full"}) == "tsad"
