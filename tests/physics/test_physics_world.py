@@ -61,6 +61,21 @@ def test_pick_and_place_moves_the_object_to_the_place_point(placed):
     assert outcome.sim_seconds > 1.0 and outcome.wall_seconds > 0.0
 
 
+def test_the_same_action_gives_the_same_physics_outcome_twice(placed):
+    """Deterministic: a fresh world executing the same action ends in the same state."""
+    world, _, outcome, _ = placed
+    again = PhysicsWorld(world._start)
+    repeat = again.execute(Action("front", 0.0, 0.08, 0.16, 0.0))
+    assert (repeat.moved, repeat.fallen, repeat.disturbed) == (outcome.moved, outcome.fallen,
+                                                               outcome.disturbed)
+    assert repeat.placement_error_mm == pytest.approx(outcome.placement_error_mm, abs=1e-6)
+    assert repeat.slip_mm == pytest.approx(outcome.slip_mm, abs=1e-6)
+    first, second = world.poses(), again.poses()
+    for name in first:
+        assert first[name].x == pytest.approx(second[name].x, abs=1e-9), name
+        assert first[name].y == pytest.approx(second[name].y, abs=1e-9), name
+
+
 def test_next_observation_is_rendered_from_the_simulated_state(placed):
     world, _, _, scene = placed
     front = next(o for o in scene.objects if o.name == "front")
