@@ -8,14 +8,15 @@ least squares averages the noise out instead:
   `trim_sigmas` robust standard deviations (flying pixels, a neighbour's stray points);
 - box: at the fitted yaw, each seen face's position is the median of the side points assigned to
   it (its noise averages out); a face seen by too few side points takes the extent of the top
-  cap's points, less `edge_trim` extreme points at each end; an extent still shorter than the
+  cap's points and the side points on seen faces, less `edge_trim` extreme points at each end; an extent still shorter than the
   smallest plausible side is completed away from the camera;
 - the outline also covers the support polygon of the seen points completed through the centre
   (hidden ends), trimmed of their extremes and drawn in by the noise the fit saw.
 
 The uncertainty (m) is how far the true footprint may reach past the outline: a floor plus
-`uncertainty_sigmas` times the fit's robust residual (the noise it saw); the planners pad the
-outline by it (`planning.state.completed_footprint_points`).
+`uncertainty_sigmas` times the fit's robust residual (the noise it saw) over the square root of
+its points per 100 (a standard error); the planners pad the outline by it
+(`planning.state.completed_footprint_points`).
 """
 
 from __future__ import annotations
@@ -39,12 +40,16 @@ class FootprintConfig:
     #: m, a face's points must span this much along it (10th-90th percentile); a corner sliver
     #: or the end of a partly hidden side is no face
     min_face_span: float = 0.012
-    uncertainty_floor: float = 0.0005  #: m, uncertainty of a perfect fit
-    uncertainty_sigmas: float = 1.0  #: uncertainty added per robust residual sigma
+    uncertainty_floor: float = 0.0003  #: m, uncertainty of a perfect fit
+    #: uncertainty added per robust residual sigma, for a segment of 100 points (the standard
+    #: error of a least-squares fit falls with the square root of the points)
+    uncertainty_sigmas: float = 1.0
     #: extreme points left out when a face's position comes from the extent of all points
     edge_trim: int = 2
     #: the outline also covers the support polygon of the completed points without this many
     #: extreme points per direction (-1: the fitted shape alone)
+    box_outline: str = "fit"  #: fit | support | union
+    box_centre: str = "fit"  #: pose | fit
     hull_trim: int = 3
     hull_shrink: float = 1.5  #: and drawn in by this many robust residual sigmas
     #: a segment is a cylinder when its circle fit's robust residual is below this times the box
@@ -128,6 +133,9 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
     dist = np.stack([np.abs(side_coords[0] - bounds[0][0]), np.abs(side_coords[0] - bounds[0][1]),
                      np.abs(side_coords[1] - bounds[1][0]), np.abs(side_coords[1] - bounds[1][1])])
     nearest = np.argmin(dist, axis=0)
+    on_faces = dist.min(axis=0) <= config.face_band
+    # what bounds a hidden face: the top cap and the side points that lie on a seen face
+    inliers = [np.concatenate([cap_coords[axis], side_coords[axis][on_faces]]) for axis in range(2)]
     faces = []
     residuals = []
     for face in range(4):
@@ -145,7 +153,7 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
     sigma = robust_sigma(np.concatenate(residuals)) if residuals else 0.0
     extents = []
     for axis in range(2):
-        cap_lo, cap_hi = _sparse_edges(cap_coords[axis], config.edge_trim)
+        cap_lo, cap_hi = _sparse_edges(inliers[axis], config.edge_trim)
         lo = faces[2 * axis] if faces[2 * axis] is not None else cap_lo
         hi = faces[2 * axis + 1] if faces[2 * axis + 1] is not None else cap_hi
         extents.append([lo, hi])
@@ -202,11 +210,15 @@ def fit_footprint(points: np.ndarray, pose: PlanarPose, pose_config: PoseConfig,
     else:
         shape, size, sigma, centre = "box", box_size, box_sigma, box_centre
     outline = footprint_polygon(shape, size, float(centre[0]), float(centre[1]), yaw)
-    if config.hull_trim >= 0:  # the seen points completed through the centre cover hidden ends
+    if shape == "box" and config.box_outline != "fit":  # completed points cover hidden ends
+        if config.box_centre == "pose":
+            centre = np.array([pose.x, pose.y])
         xy = points[:, :2]
         completed = np.concatenate([xy, 2 * centre - xy])
-        outline = convex_hull(np.concatenate([
-            outline, support_polygon(completed, config.hull_trim, config.hull_shrink * sigma)]))
-    uncertainty = config.uncertainty_floor + config.uncertainty_sigmas * sigma
+        support = support_polygon(completed, config.hull_trim, config.hull_shrink * sigma)
+        outline = support if config.box_outline == "support" else convex_hull(
+            np.concatenate([outline, support]))
+    uncertainty = (config.uncertainty_floor
+                   + config.uncertainty_sigmas * sigma / np.sqrt(len(points) / 100.0))
     return FittedFootprint(float(centre[0]), float(centre[1]), yaw, shape, size, outline,
                            float(uncertainty), float(sigma))
