@@ -8,10 +8,11 @@ least squares averages the noise out instead:
   `trim_sigmas` robust standard deviations (flying pixels, a neighbour's stray points);
 - box: at the fitted yaw, each seen face's position is the median of the side points assigned to
   it (its noise averages out); a face seen by too few side points takes the extent of the top
-  cap's points and the side points on seen faces, less `edge_trim` extreme points at each end; an extent still shorter than the
-  smallest plausible side is completed away from the camera;
-- the outline also covers the support polygon of the seen points completed through the centre
-  (hidden ends), trimmed of their extremes and drawn in by the noise the fit saw.
+  cap's points and the side points on seen faces, less `edge_trim` extreme points at each end;
+  an extent still shorter than the smallest plausible side is completed away from the camera;
+- optionally (`box_outline`) the outline is, or also covers, the support polygon of the seen
+  points completed through the centre, trimmed of their extremes and drawn in by the noise the
+  fit saw (measured worse on scenario 2: kept off).
 
 The uncertainty (m) is how far the true footprint may reach past the outline: a floor plus
 `uncertainty_sigmas` times the fit's robust residual (the noise it saw) over the square root of
@@ -48,8 +49,8 @@ class FootprintConfig:
     edge_trim: int = 2
     #: the outline also covers the support polygon of the completed points without this many
     #: extreme points per direction (-1: the fitted shape alone)
-    box_outline: str = "fit"  #: fit | support | union
-    box_centre: str = "fit"  #: pose | fit
+    box_outline: str = "fit"  #: fit (the fitted box) | support | union (see the docstring)
+    box_centre: str = "fit"  #: centre the support polygon completes through: fit | pose
     hull_trim: int = 3
     hull_shrink: float = 1.5  #: and drawn in by this many robust residual sigmas
     #: a segment is a cylinder when its circle fit's robust residual is below this times the box
