@@ -15,7 +15,7 @@ import dataclasses as dc
 
 import numpy as np
 
-from tsad_drake.perception.observe import observe_raycast, perception_config
+from tsad_drake.perception.observe import PerceptionConfig, observe_raycast, perception_config
 from tsad_drake.perception.sensor import SENSOR_PRESETS, SensorConfig, sensor_config
 from tsad_drake.planning.pointcloud_sim import perceived_hull
 from tsad_drake.planning.state import state_from_perception
@@ -45,11 +45,14 @@ def support(polygon: np.ndarray, angles: np.ndarray) -> np.ndarray:
 
 
 def hull_errors(scenario: Scenario, sensor: SensorConfig | None = None,
-                segmentation: str = "label", noise_seed: int = 0) -> list[HullError]:
+                segmentation: str = "label", noise_seed: int = 0,
+                plain: bool = False) -> list[HullError]:
     """Errors of every perceived object of `scenario` (ray caster through `sensor`, perception
-    configured for it); a cluster stands for the true object nearest its centre."""
+    configured for it, or with `plain` the ideal sensor's pipeline whatever the sensor); a
+    cluster stands for the true object nearest its centre."""
+    config = PerceptionConfig() if plain else perception_config(sensor)
     observation = observe_raycast(scenario, segmentation=segmentation, sensor=sensor,
-                                  config=perception_config(sensor), noise_seed=noise_seed)
+                                  config=config, noise_seed=noise_seed)
     state = state_from_perception(observation.scene)
     truth = {o.name: o for o in scenario.objects}
     side_angles = np.array(list(SIDES.values()))
@@ -96,6 +99,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--noise-mm", type=float, default=None,
                         help="constant depth noise (mm) instead of the sensor's range law")
     parser.add_argument("--segmentation", default="label", choices=["label", "cluster"])
+    parser.add_argument("--plain", action="store_true",
+                        help="the ideal sensor's perception (point hulls) whatever the sensor")
     args = parser.parse_args(argv)
     sensor = sensor_config(args.sensor)
     if args.noise_mm is not None:
@@ -104,11 +109,12 @@ def main(argv: list[str] | None = None) -> None:
     seeds = range(args.seed_start, args.seed_start + args.seeds)
     for name in args.scenarios.split(","):
         for seed in seeds:
-            rows += hull_errors(generate_scenario(name, seed), sensor, args.segmentation, seed)
+            rows += hull_errors(generate_scenario(name, seed), sensor, args.segmentation, seed,
+                                args.plain)
     print(f"perceived hull vs true footprint, scenarios {args.scenarios} x seeds "
           f"{seeds.start}-{seeds.stop - 1} (ray caster, sensor {args.sensor}"
-          f"{'' if args.noise_mm is None else f' at {args.noise_mm} mm'}, {args.segmentation} "
-          f"segmentation; mm):")
+          f"{'' if args.noise_mm is None else f' at {args.noise_mm} mm'}"
+          f"{', plain pipeline' if args.plain else ''}, {args.segmentation} segmentation; mm):")
     print(f"{'kind':<14} {'objects':>7} {'short med':>9} {'p90':>5} {'max':>5} {'excess med':>10} "
           f"{'p90':>5}   signed per side (front back left right)")
     for kind, e in summary(rows).items():
