@@ -87,3 +87,32 @@ def test_presets_and_overrides() -> None:
 def test_bad_sensor_input_is_a_value_error(bad) -> None:
     with pytest.raises(ValueError):
         bad()
+
+
+def test_station_path_and_ray_caster_read_through_the_same_sensor() -> None:
+    """`observe(station)` and `observe_raycast` apply one sensor model: a station that renders
+    with the ray caster gives the very same noisy views for the same noise seed."""
+    from tsad_drake.perception.observe import observe, observe_raycast, perception_config
+    from tsad_drake.scenes import generate_scenario
+    from tsad_drake.viewpoints import CameraConfig, camera_pose, raycast, scenario_prisms
+
+    scenario = generate_scenario("1", 0)
+    camera = CameraConfig()
+
+    class RaycastStation:
+        def __init__(self) -> None:
+            self.scenario, self.camera = scenario, camera
+
+        def render(self, theta: float):
+            X_SC = camera_pose(scenario.shelf, camera, theta)
+            depth, label = raycast(scenario_prisms(scenario), camera, X_SC)
+            return depth, label, X_SC
+
+    sensor = SENSOR_PRESETS["realistic"]
+    config = perception_config(sensor)
+    a = observe(RaycastStation(), sensor=sensor, config=config, noise_seed=[3, 0])
+    b = observe_raycast(scenario, camera, sensor=sensor, config=config, noise_seed=[3, 0])
+    for va, vb in zip(a.views, b.views, strict=True):
+        np.testing.assert_array_equal(va.depth, vb.depth)
+    assert not np.array_equal(a.views[0].depth, observe_raycast(scenario).views[0].depth)
+    np.testing.assert_allclose(a.cloud.points, b.cloud.points)
