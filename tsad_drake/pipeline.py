@@ -12,6 +12,8 @@ from typing import Any
 
 from tsad_drake.execution.episode import EpisodeLimits, run_episode
 from tsad_drake.execution.world import GeometricWorld, Observer, World
+from tsad_drake.perception.observe import perception_config
+from tsad_drake.perception.sensor import SensorConfig, sensor_config
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.feasibility import GeometricFeasibility, OracleFeasibility
 from tsad_drake.planning.interface import FeasibilityModel
@@ -55,42 +57,69 @@ class EpisodeSettings:
     #: geometric (the 2-D corridor rule judges) | physics (every action a Drake contact
     #: simulation; implies the motion level and the Drake observer on the simulated state)
     world: str = "geometric"
+    sensor: str = "ideal"  #: ideal (exact rendered depth) | realistic (`perception.sensor`)
+    #: sensor fields set after the preset: ((field, value), ...), e.g. (("noise_sigma0", 0.002),)
+    sensor_overrides: tuple[tuple[str, float], ...] = ()
+
+    def sensor_config(self) -> SensorConfig:
+        """The episode's sensor model (ValueError on an unknown name or field)."""
+        return sensor_config(self.sensor, **dict(self.sensor_overrides))
 
 
 class RaycastObserver:
-    """Observation with the NumPy ray caster (same camera, same pipeline, no Drake)."""
+    """Observation with the NumPy ray caster (same camera, same pipeline, no Drake).
 
-    def __init__(self, segmentation: str = "label") -> None:
+    Each call reads the scene afresh through `sensor`: observation k of an episode draws its
+    noise from the seed (noise_seed, k), so an episode is repeatable and no two reads agree.
+    """
+
+    def __init__(self, segmentation: str = "label", sensor: SensorConfig | None = None,
+                 noise_seed: int = 0) -> None:
         self.segmentation = segmentation
+        self.sensor = sensor or SensorConfig()
+        self.noise_seed = noise_seed
+        self.calls = 0
 
     def __call__(self, truth: Scenario) -> PerceivedScene:
         from tsad_drake.perception.observe import observe_raycast
 
-        return observe_raycast(truth, segmentation=self.segmentation).scene
+        seed = [self.noise_seed, self.calls]
+        self.calls += 1
+        return observe_raycast(truth, segmentation=self.segmentation, sensor=self.sensor,
+                               config=perception_config(self.sensor), noise_seed=seed).scene
 
 
 class DrakeObserver:
-    """Observation through the Drake station: built once, objects moved for each new observation."""
+    """Observation through the Drake station: built once, objects moved for each new observation
+    (noise seeded as in `RaycastObserver`)."""
 
-    def __init__(self, scenario: Scenario, segmentation: str = "label") -> None:
+    def __init__(self, scenario: Scenario, segmentation: str = "label",
+                 sensor: SensorConfig | None = None, noise_seed: int = 0) -> None:
         from tsad_drake.station import MakeStation
 
         self.station = MakeStation(scenario)
         self.segmentation = segmentation
+        self.sensor = sensor or SensorConfig()
+        self.noise_seed = noise_seed
+        self.calls = 0
 
     def __call__(self, truth: Scenario) -> PerceivedScene:
         from tsad_drake.perception.observe import observe
 
         self.station.set_objects(truth.objects)
-        return observe(self.station, segmentation=self.segmentation).scene
+        seed = [self.noise_seed, self.calls]
+        self.calls += 1
+        return observe(self.station, segmentation=self.segmentation, sensor=self.sensor,
+                       config=perception_config(self.sensor), noise_seed=seed).scene
 
 
-def make_observer(name: str, scenario: Scenario, segmentation: str = "label") -> Observer:
+def make_observer(name: str, scenario: Scenario, segmentation: str = "label",
+                  sensor: SensorConfig | None = None, noise_seed: int = 0) -> Observer:
     """The observer called `name` ("raycast" or "drake") for scenes like `scenario`."""
     if name == "raycast":
-        return RaycastObserver(segmentation)
+        return RaycastObserver(segmentation, sensor, noise_seed)
     if name == "drake":
-        return DrakeObserver(scenario, segmentation)
+        return DrakeObserver(scenario, segmentation, sensor, noise_seed)
     raise ValueError(f"unknown observer {name!r}: use raycast or drake")
 
 
@@ -107,14 +136,18 @@ def physics_settings(settings: EpisodeSettings) -> EpisodeSettings:
     return dc.replace(settings, motion=True, observer="drake")
 
 
-def make_world(settings: EpisodeSettings, scenario: Scenario) -> World:
-    """The world an episode acts on: geometric (with the settings' observer) or physics."""
+def make_world(settings: EpisodeSettings, scenario: Scenario, seed: int = 0) -> World:
+    """The world an episode acts on: geometric (with the settings' observer, its sensor noise
+    drawn from `seed`) or physics."""
     if settings.world == "physics":
         from tsad_drake.physics.world import PhysicsWorld
 
+        if settings.sensor != "ideal" or settings.sensor_overrides:
+            raise ValueError("the physics world observes with the ideal sensor only (for now)")
         return PhysicsWorld(scenario, segmentation=settings.segmentation)
     return GeometricWorld(scenario, make_observer(settings.observer, scenario,
-                                                  settings.segmentation))
+                                                  settings.segmentation,
+                                                  settings.sensor_config(), seed))
 
 
 def initial_rearrangement_set_size(scenario: Scenario) -> int:
@@ -129,7 +162,7 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
     config = make_config(settings.planner, settings.ablation, settings.variant,
                          **dict(settings.planner_overrides))
     settings = physics_settings(settings)
-    world = make_world(settings, scenario)
+    world = make_world(settings, scenario, seed)
     action_check = None
     if settings.motion:
         from tsad_drake.motion.verify import is_pick_failure, motion_check
@@ -162,6 +195,7 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
         row["physics"] = physics_figures(row["actions"])
         if isinstance(world, PhysicsWorld) and world.retrieval is not None:
             row["physics"]["retrieval"] = physics_record(world.retrieval)
+    row["sensor"] = settings.sensor
     row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
     first_stats = row["rounds"][0]["stats"] if row["rounds"] else {}
     if settings.planner == "optimal":

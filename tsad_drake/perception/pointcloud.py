@@ -44,6 +44,32 @@ class CloudConfig:
     floor_tolerance: float = 0.004  #: m, points at most this high above the shelf floor are floor
     wall_tolerance: float = 0.003  #: m, points this close to a side/back wall or the top are shelf
     voxel_size: float = 0.003  #: m, edge of the voxels the fused cloud is down-sampled into
+    #: m, a pixel reading this much farther than its nearest 4-neighbour is dropped before
+    #: back-projection: flying pixels between surfaces and the far side of each depth edge
+    #: (0: off)
+    shadow_jump: float = 0.0
+    #: statistical outlier removal per view (flying pixels): neighbours compared (0: off)
+    outlier_neighbours: int = 0
+    #: a point whose mean neighbour distance exceeds the view's mean by this many standard
+    #: deviations is an outlier
+    outlier_std_ratio: float = 2.0
+
+
+def drop_far_side_of_edges(depth: np.ndarray, jump: float) -> np.ndarray:
+    """`depth` with inf where a reading lies more than `jump` (m) beyond its nearest 4-neighbour:
+    flying pixels (readings between a silhouette and what lies behind it) and the occluded side
+    of each depth edge go; an object's own silhouette, the near side, stays."""
+    depth = np.asarray(depth, dtype=float)
+    if jump <= 0:
+        return depth
+    finite = np.where(np.isfinite(depth) & (depth > 0), depth, np.inf)
+    padded = np.pad(finite, 1, mode="edge")
+    nearest = np.minimum.reduce([padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2],
+                                 padded[1:-1, 2:]])
+    out = depth.copy()
+    with np.errstate(invalid="ignore"):
+        out[np.isfinite(finite) & (finite - nearest > jump)] = np.inf
+    return out
 
 
 def depth_to_cloud(depth: np.ndarray, intrinsics: np.ndarray, X_SC: np.ndarray,
@@ -123,6 +149,17 @@ def majority_label(group: np.ndarray, labels: np.ndarray, num_groups: int) -> np
     return out
 
 
+def remove_outliers(cloud: LabelledCloud, neighbours: int, std_ratio: float) -> LabelledCloud:
+    """Open3D statistical outlier removal (isolated points: flying pixels, stray noise)."""
+    import open3d as o3d
+
+    if neighbours <= 0 or len(cloud) <= neighbours:
+        return cloud
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(cloud.points))
+    _, kept = pcd.remove_statistical_outlier(nb_neighbors=neighbours, std_ratio=std_ratio)
+    return cloud.select(np.sort(np.asarray(kept, dtype=int)))
+
+
 def fuse_clouds(clouds: list[LabelledCloud], voxel_size: float = 0.003) -> LabelledCloud:
     """Concatenate per-view clouds and voxel down-sample them into one cloud."""
     clouds = [c for c in clouds if len(c)]
@@ -138,7 +175,9 @@ def views_to_cloud(views: list[tuple[np.ndarray, np.ndarray | None, np.ndarray]]
                    config: CloudConfig | None = None) -> LabelledCloud:
     """(depth, label, X_SC) per view -> one fused, shelf-free, down-sampled cloud in S."""
     config = config or CloudConfig()
-    clouds = [remove_shelf(depth_to_cloud(depth, intrinsics, X_SC, label, config.max_depth),
-                           shelf, config)
-              for depth, label, X_SC in views]
+    clouds = [remove_outliers(
+        remove_shelf(depth_to_cloud(drop_far_side_of_edges(depth, config.shadow_jump),
+                                    intrinsics, X_SC, label, config.max_depth), shelf, config),
+        config.outlier_neighbours, config.outlier_std_ratio)
+        for depth, label, X_SC in views]
     return fuse_clouds(clouds, config.voxel_size)

@@ -47,6 +47,11 @@ class ClusterConfig:
     min_cap_cells: int = 20  #: a part needs a top cap over this many grid cells to stand alone
     fragment_points: int = 150  #: capless parts smaller than this are fragments of a neighbour
     merge_distance: float = 0.010  #: m, a fragment this close (in xy) to a part joins it
+    #: m, a cluster longer (along its principal axis) than this holds several objects and is split
+    #: by k-means in the floor plane until no part is (0: never; noisy depth bridges gaps)
+    max_object_length: float = 0.0
+    max_object_width: float = 0.0  #: m, and likewise a cluster wider than this across its axis
+    max_split: int = 4  #: most parts one cluster is split into
 
 
 def segment_by_label(cloud: LabelledCloud, names: list[str], target_label: int | None,
@@ -149,6 +154,8 @@ def cluster_cloud(cloud: LabelledCloud, config: ClusterConfig | None = None) -> 
     for c in range(coarse.max() + 1 if len(coarse) else 0):
         parts += _split_touching(points, np.flatnonzero(coarse == c), config)
     parts = _absorb_fragments(points, parts, config)
+    if config.max_object_length > 0:
+        parts = [q for p in parts for q in split_oversized(points, p, config)]
     ids = np.full(len(points), -1, dtype=int)
     next_id = 0
     for part in parts:
@@ -187,6 +194,51 @@ def _absorb_fragments(points: np.ndarray, parts: list[np.ndarray], config: Clust
         else:
             kept.append(p)
     return [np.sort(np.asarray(m, dtype=int)) for m in merged] + kept
+
+
+def _extent(xy: np.ndarray) -> tuple[float, float]:
+    """Length along the principal axis and width across it of 2-D points (2nd-98th percentile)."""
+    centred = xy - xy.mean(axis=0)
+    _, _, axes = np.linalg.svd(centred, full_matrices=False)
+    proj = centred @ axes.T
+    lo, hi = np.percentile(proj, [2, 98], axis=0)
+    return float(hi[0] - lo[0]), float(hi[1] - lo[1])
+
+
+def _kmeans(xy: np.ndarray, k: int, iterations: int = 30) -> np.ndarray:
+    """Cluster index per point of a deterministic k-means (farthest-point initialisation)."""
+    centres = [xy[int(np.argmin(xy[:, 0] + xy[:, 1]))]]
+    for _ in range(k - 1):
+        d = np.min([np.sum((xy - c) ** 2, axis=1) for c in centres], axis=0)
+        centres.append(xy[int(np.argmax(d))])
+    centres = np.array(centres)
+    assign = np.zeros(len(xy), dtype=int)
+    for _ in range(iterations):
+        assign = np.argmin(((xy[:, None, :] - centres[None]) ** 2).sum(axis=2), axis=1)
+        new = np.array([xy[assign == j].mean(axis=0) if np.any(assign == j) else centres[j]
+                        for j in range(k)])
+        if np.allclose(new, centres):
+            break
+        centres = new
+    return assign
+
+
+def split_oversized(points: np.ndarray, members: np.ndarray, config: ClusterConfig
+                    ) -> list[np.ndarray]:
+    """`members` as one part, or split into the fewest k-means parts (floor plane) none of which
+    is longer or wider than one object can be (objects whose gap the noise bridged)."""
+    def fits(part: np.ndarray) -> bool:
+        length, width = _extent(points[part, :2])
+        return length <= config.max_object_length and width <= config.max_object_width
+
+    if len(members) < 2 * config.min_cluster_points or fits(members):
+        return [members]
+    for k in range(2, config.max_split + 1):
+        assign = _kmeans(points[members, :2], k)
+        parts = [members[assign == j] for j in range(k)]
+        if all(fits(p) for p in parts if len(p)):
+            return [p for p in parts if len(p)]
+    return [members]
 
 
 def segment_by_cluster(cloud: LabelledCloud, target_label: int | None,

@@ -19,6 +19,10 @@ class PerceivedObject:
     is_target: bool = False
     shape: str = ""  #: fitted footprint model, "cylinder" or "box" ("" when not estimated)
     size: tuple[float, ...] = ()  #: m, fitted (radius,) or (sx, sy) along yaw and across
+    #: (K, 2) m, fitted footprint outline in S (`perception.footprint`); None: the planners
+    #: complete the hull of the seen points instead
+    outline: np.ndarray | None = None
+    uncertainty: float = 0.0  #: m, how far the true footprint may reach past `outline`
 
 
 @dc.dataclass

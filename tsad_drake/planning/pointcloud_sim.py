@@ -48,9 +48,13 @@ def move_object(obj: PlanObject, x: float, y: float, rotation: float) -> PlanObj
     points = np.array(obj.points, dtype=float, copy=True)
     points[:, :2] = (points[:, :2] - centre) @ rotation2d(rotation).T + np.array([x, y])
     points.setflags(write=False)
+    outline = obj.outline
+    if outline is not None:
+        outline = (outline - centre) @ rotation2d(rotation).T + np.array([x, y])
+        outline.setflags(write=False)
     origin = obj.origin if obj.origin is not None else obj.pose
     return dc.replace(obj, points=points, x=float(x), y=float(y),
-                      yaw=float(obj.yaw + rotation), origin=origin)
+                      yaw=float(obj.yaw + rotation), origin=origin, outline=outline)
 
 
 def simulate_pick_place(state: PlanningState, action: Action) -> PlanningState:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tsad_drake.geometry2d import footprint_polygon, points_in_polygon
+from tsad_drake.geometry2d import CIRCLE_VERTICES, footprint_polygon, points_in_polygon
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import Scenario
@@ -52,14 +52,23 @@ def state_from_perception(scene: PerceivedScene) -> PlanningState:
         points = np.array(o.points, dtype=float, copy=True)
         points.setflags(write=False)
         pose = (float(o.x), float(o.y), float(o.yaw))
+        outline = None
+        if o.outline is not None:
+            outline = np.array(o.outline, dtype=float, copy=True)
+            outline.setflags(write=False)
         objects.append(PlanObject(o.name, points, *pose, origin=pose, shape=o.shape,
-                                  size=tuple(float(v) for v in o.size)))
+                                  size=tuple(float(v) for v in o.size), outline=outline,
+                                  uncertainty=float(o.uncertainty)))
     return PlanningState(tuple(objects), scene.target or "")
 
 
 def completed_footprint_points(obj: PlanObject) -> np.ndarray:
     """(2P (+ K), 2) xy points of `obj` plus their reflection through its estimated centre, plus,
     for an object perception fitted as a cylinder, the K vertices of its fitted circle's footprint.
+
+    An object with a fitted `outline` (noisy sensing) is the outline padded by its uncertainty
+    instead, filled with those of the points above that lie inside it (the noisiest points, which
+    would grow the hull with the noise, are left out).
 
     Cylinders and boxes are centrally symmetric about their centre, so the reflection of the
     front-side points recovers the unseen back half of the footprint. The seen points of a
@@ -72,9 +81,23 @@ def completed_footprint_points(obj: PlanObject) -> np.ndarray:
     xy = obj.points[:, :2]
     centre = np.array([obj.x, obj.y])
     parts = [xy, 2.0 * centre - xy]
+    if obj.outline is not None:  # the seen points and their reflections fill it, for d_min
+        inside = np.concatenate(parts)
+        inside = inside[points_in_polygon(inside, obj.outline)]
+        return np.concatenate([padded_outline(obj.outline, obj.uncertainty), inside])
     if obj.shape == "cylinder" and obj.size:
         parts.append(footprint_polygon("cylinder", obj.size, obj.x, obj.y, 0.0))
     return np.concatenate(parts)
+
+
+def padded_outline(outline: np.ndarray, pad: float) -> np.ndarray:
+    """The vertices of `outline` grown by `pad` (m) in `CIRCLE_VERTICES` directions each: a
+    polygon containing the outline's Minkowski sum with a disc of radius `pad`."""
+    if pad <= 0:
+        return np.asarray(outline)
+    angles = np.arange(CIRCLE_VERTICES) * 2 * np.pi / CIRCLE_VERTICES
+    ring = pad / np.cos(np.pi / CIRCLE_VERTICES) * np.stack([np.cos(angles), np.sin(angles)], 1)
+    return (np.asarray(outline)[:, None, :] + ring[None, :, :]).reshape(-1, 2)
 
 
 def occupied_cells(points_xy: np.ndarray, cell_centres: np.ndarray,

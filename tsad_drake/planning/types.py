@@ -42,6 +42,10 @@ class PlanObject:
     shape: str = ""
     #: m, fitted (radius,) or (sx, sy) along yaw and across; () when not estimated
     size: tuple[float, ...] = ()
+    #: (K, 2) m, fitted footprint outline in S at the current pose (moved with the points);
+    #: None: the footprint is the completed hull of the points
+    outline: np.ndarray | None = None
+    uncertainty: float = 0.0  #: m, the outline is padded by this (perceived pose uncertainty)
 
     @property
     def pose(self) -> tuple[float, float, float]:

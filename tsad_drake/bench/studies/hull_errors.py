@@ -15,7 +15,8 @@ import dataclasses as dc
 
 import numpy as np
 
-from tsad_drake.perception.observe import observe_raycast
+from tsad_drake.perception.observe import PerceptionConfig, observe_raycast, perception_config
+from tsad_drake.perception.sensor import SENSOR_PRESETS, SensorConfig, sensor_config
 from tsad_drake.planning.pointcloud_sim import perceived_hull
 from tsad_drake.planning.state import state_from_perception
 from tsad_drake.scenario import Scenario
@@ -43,16 +44,23 @@ def support(polygon: np.ndarray, angles: np.ndarray) -> np.ndarray:
     return (polygon @ np.stack([np.cos(angles), np.sin(angles)])).max(axis=0)
 
 
-def hull_errors(scenario: Scenario) -> list[HullError]:
-    """Errors of every perceived object of `scenario` (ray caster, label segmentation)."""
-    state = state_from_perception(observe_raycast(scenario, segmentation="label").scene)
+def hull_errors(scenario: Scenario, sensor: SensorConfig | None = None,
+                segmentation: str = "label", noise_seed: int = 0,
+                plain: bool = False) -> list[HullError]:
+    """Errors of every perceived object of `scenario` (ray caster through `sensor`, perception
+    configured for it, or with `plain` the ideal sensor's pipeline whatever the sensor); a
+    cluster stands for the true object nearest its centre."""
+    config = PerceptionConfig() if plain else perception_config(sensor)
+    observation = observe_raycast(scenario, segmentation=segmentation, sensor=sensor,
+                                  config=config, noise_seed=noise_seed)
+    state = state_from_perception(observation.scene)
     truth = {o.name: o for o in scenario.objects}
     side_angles = np.array(list(SIDES.values()))
     rows = []
     for obj in state.objects:
         true = truth.get(obj.name)
         if true is None:
-            continue
+            true = min(scenario.objects, key=lambda o: np.hypot(o.x - obj.x, o.y - obj.y))
         hull, footprint = perceived_hull(obj), np.asarray(true.footprint())
         diff = support(hull, DIRECTIONS) - support(footprint, DIRECTIONS)
         sides = support(hull, side_angles) - support(footprint, side_angles)
@@ -85,14 +93,28 @@ def summary(rows: list[HullError]) -> dict[str, dict[str, float]]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenarios", default="1,2,3", help="comma-separated built-in scenarios")
-    parser.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 of each scenario")
+    parser.add_argument("--seeds", type=int, default=10, help="seeds of each scenario")
+    parser.add_argument("--seed-start", type=int, default=0, help="first seed")
+    parser.add_argument("--sensor", default="ideal", choices=list(SENSOR_PRESETS))
+    parser.add_argument("--noise-mm", type=float, default=None,
+                        help="constant depth noise (mm) instead of the sensor's range law")
+    parser.add_argument("--segmentation", default="label", choices=["label", "cluster"])
+    parser.add_argument("--plain", action="store_true",
+                        help="the ideal sensor's perception (point hulls) whatever the sensor")
     args = parser.parse_args(argv)
+    sensor = sensor_config(args.sensor)
+    if args.noise_mm is not None:
+        sensor = sensor_config(args.sensor, noise_sigma0=args.noise_mm / 1000, noise_sigma2=0.0)
     rows = []
+    seeds = range(args.seed_start, args.seed_start + args.seeds)
     for name in args.scenarios.split(","):
-        for seed in range(args.seeds):
-            rows += hull_errors(generate_scenario(name, seed))
+        for seed in seeds:
+            rows += hull_errors(generate_scenario(name, seed), sensor, args.segmentation, seed,
+                                args.plain)
     print(f"perceived hull vs true footprint, scenarios {args.scenarios} x seeds "
-          f"0-{args.seeds - 1} (ray caster; mm):")
+          f"{seeds.start}-{seeds.stop - 1} (ray caster, sensor {args.sensor}"
+          f"{'' if args.noise_mm is None else f' at {args.noise_mm} mm'}"
+          f"{', plain pipeline' if args.plain else ''}, {args.segmentation} segmentation; mm):")
     print(f"{'kind':<14} {'objects':>7} {'short med':>9} {'p90':>5} {'max':>5} {'excess med':>10} "
           f"{'p90':>5}   signed per side (front back left right)")
     for kind, e in summary(rows).items():

@@ -1,9 +1,12 @@
 """Quick evaluation of a planner on generated scenes (closed loop, ray-cast observations).
 
     python -m tsad_drake.bench.studies.quick_eval --planner tsad --feasibility geometric --episodes 10
+    python -m tsad_drake.bench.studies.quick_eval --sensor realistic --segmentation cluster
+    python -m tsad_drake.bench.studies.quick_eval --sensor realistic --noise-mm 2
 
-Prints, per scenario, success rate, mean actions and falls (successful / all episodes) and the
-median planning time per episode; `--json FILE` writes every episode's result.
+Episodes run as `pipeline.run_settings` runs them (the bench's 12-action limit). Prints, per
+scenario, success rate, mean actions and falls (successful / all episodes) and the median planning
+time per episode; `--json FILE` writes every episode's result.
 """
 
 from __future__ import annotations
@@ -14,8 +17,8 @@ import statistics
 import sys
 import time
 
-from tsad_drake.execution.episode import EpisodeResult, run_episode
-from tsad_drake.perception.observe import observe_raycast
+from tsad_drake.perception.sensor import SENSOR_PRESETS
+from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.scenes import generate_scenario
 
@@ -24,13 +27,14 @@ def _mean(values: list[float]) -> float:
     return statistics.fmean(values) if values else float("nan")
 
 
-def summary_row(scenario: str, results: list[EpisodeResult]) -> str:
+def summary_row(scenario: str, rows: list[dict]) -> str:
     """One line: success, actions and falls (successful / all), median planning time."""
-    ok = [r for r in results if r.success]
-    return (f"{scenario:>8} {len(results):>3} {len(ok) / max(len(results), 1):>7.2f} "
-            f"{_mean([r.num_actions for r in ok]):>5.2f} / {_mean([r.num_actions for r in results]):<5.2f}"
-            f" {_mean([r.falls for r in ok]):>5.2f} / {_mean([r.falls for r in results]):<5.2f}"
-            f" {statistics.median([r.planning_time_s for r in results]):>9.2f}")
+    ok = [r for r in rows if r["success"]]
+    return (f"{scenario:>8} {len(rows):>3} {len(ok) / max(len(rows), 1):>7.2f} "
+            f"{_mean([r['num_actions'] for r in ok]):>5.2f} / "
+            f"{_mean([r['num_actions'] for r in rows]):<5.2f}"
+            f" {_mean([r['falls'] for r in ok]):>5.2f} / {_mean([r['falls'] for r in rows]):<5.2f}"
+            f" {statistics.median([r['planning_time_s'] for r in rows]):>9.2f}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -43,11 +47,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed-start", type=int, default=0, help="first seed")
     parser.add_argument("--open-loop", action="store_true", help="execute whole plans once")
     parser.add_argument("--occluded", action="store_true", help="fully occluded targets")
+    parser.add_argument("--segmentation", default="label", choices=["label", "cluster"])
+    parser.add_argument("--sensor", default="ideal", choices=list(SENSOR_PRESETS),
+                        help="depth sensor model (perception.sensor)")
+    parser.add_argument("--noise-mm", type=float, default=None,
+                        help="constant depth noise (mm) instead of the sensor's range law")
     parser.add_argument("--json", default="", help="write every episode's result here")
     args = parser.parse_args(argv)
+    overrides = () if args.noise_mm is None else (("noise_sigma0", args.noise_mm / 1000),
+                                                   ("noise_sigma2", 0.0))
+    settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
+                               ablation=args.ablation, closed_loop=not args.open_loop,
+                               segmentation=args.segmentation, sensor=args.sensor,
+                               sensor_overrides=overrides)
     try:
-        planner = get_planner(args.planner)
-        config = make_config(args.planner, args.ablation)
+        get_planner(args.planner)
+        make_config(args.planner, args.ablation)
+        settings.sensor_config()
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -62,14 +78,12 @@ def main(argv: list[str] | None = None) -> int:
         for seed in range(args.seed_start, args.seed_start + args.episodes):
             scenario = generate_scenario(name, seed, occluded=args.occluded)
             t0 = time.perf_counter()
-            result = run_episode(scenario, planner, args.feasibility,
-                                 lambda s: observe_raycast(s).scene, config, seed,
-                                 closed_loop=not args.open_loop, planner_name=args.planner)
-            results.append(result)
-            rows.append(result.to_json() | {"wall_s": time.perf_counter() - t0})
-            print(f"  seed {seed}: success={result.success} actions={result.num_actions} "
-                  f"falls={result.falls} plan={result.planning_time_s:.2f}s "
-                  f"{result.failure_reason}", file=sys.stderr, flush=True)
+            row = run_settings(scenario, seed, settings)
+            results.append(row)
+            rows.append(row | {"wall_s": time.perf_counter() - t0})
+            print(f"  seed {seed}: success={row['success']} actions={row['num_actions']} "
+                  f"falls={row['falls']} plan={row['planning_time_s']:.2f}s "
+                  f"{row['failure_reason']}", file=sys.stderr, flush=True)
         print(summary_row(name, results), flush=True)
     if args.json:
         with open(args.json, "w") as f:
