@@ -60,16 +60,21 @@ def _write_cloud(points: np.ndarray, segment_index: np.ndarray, path: Path) -> N
         raise OSError(f"open3d could not write {path}")
 
 
-def render_and_write(scenario: Scenario, out: OutputDir | Path, segmentation: str = "label") -> dict:
-    """Observe `scenario` through the Drake station and write the render outputs into `out`."""
-    from tsad_drake.perception.observe import observe, summary_table
+def render_and_write(scenario: Scenario, out: OutputDir | Path, segmentation: str = "label",
+                     sensor: str = "ideal", noise_seed: int = 0) -> dict:
+    """Observe `scenario` through the Drake station (depth through the `sensor` preset, its
+    noise drawn from `noise_seed`) and write the render outputs into `out`."""
+    from tsad_drake.perception.observe import observe, perception_config, summary_table
+    from tsad_drake.perception.sensor import sensor_config
     from tsad_drake.station import MakeStation
 
     t0 = time.perf_counter()
     station = MakeStation(scenario)
     t_build = time.perf_counter() - t0
     t0 = time.perf_counter()
-    observation = observe(station, segmentation=segmentation)
+    model = sensor_config(sensor)
+    observation = observe(station, segmentation=segmentation, config=perception_config(model),
+                          sensor=model, noise_seed=noise_seed)
     t_observe = time.perf_counter() - t0
 
     cloud = observation.cloud
@@ -79,6 +84,7 @@ def render_and_write(scenario: Scenario, out: OutputDir | Path, segmentation: st
     segments_array = np.concatenate([cloud.points, segment_index[:, None]], axis=1)
     summary = {
         "scenario": scenario.name, "seed": scenario.seed, "segmentation": segmentation,
+        "sensor": sensor,
         "approach_angles_deg": [math.degrees(v.theta) for v in observation.views],
         "camera_poses_X_SC": [v.X_SC.tolist() for v in observation.views],
         "target": observation.scene.target,

@@ -31,3 +31,23 @@ def test_bench_rows_of_the_variants_are_kept_apart():
     assert "variant" in SPEC_KEYS and paper.key() != EpisodeSpec("1", 0, "tsad", "geometric").key()
     spec = {k: getattr(paper, k) for k in SPEC_KEYS}
     assert _label(spec) == "tsad-paper" and _label({**spec, "variant": "full"}) == "tsad"
+
+
+def test_plan_with_realistic_sensing_and_cluster_segmentation(tmp_path, capsys):
+    save_scenario(load_scene("3", 1), tmp_path / "scene.yaml")
+    out = tmp_path / "out"
+    code, _, stderr = invoke(capsys, ["plan", "--scenario", str(tmp_path / "scene.yaml"),
+                                      "--planner", "tsad", "--feasibility", "geometric",
+                                      "--observer", "raycast", "--sensor", "realistic",
+                                      "--segmentation", "cluster", "--out", str(out)])
+    assert code in (0, 1), stderr
+    doc = json.loads((out / "plan.json").read_text())
+    assert doc["sensor"] == "realistic" and doc["settings"]["segmentation"] == "cluster"
+    assert doc["success"], doc["failure_reason"]
+
+
+def test_physics_with_a_noisy_sensor_is_refused_before_work(tmp_path, capsys):
+    code, _, stderr = invoke(capsys, ["plan", "--scenario", "1", "--planner", "tsad",
+                                      "--world", "physics", "--sensor", "realistic",
+                                      "--out", str(tmp_path / "out")])
+    assert code == 2 and "--sensor" in stderr and len(stderr.strip().splitlines()) == 1

@@ -105,6 +105,10 @@ def _label(spec: dict) -> str:
     label = spec["planner"]
     if spec.get("variant", "full") != "full":
         label += f"-{spec['variant']}"
+    if spec.get("sensor", "ideal") != "ideal":
+        label += f" {spec['sensor']} sensor"
+    if spec.get("segmentation", "label") != "label":
+        label += f" {spec['segmentation']}"
     if spec.get("ablation", "none") != "none":
         label += f" ({spec['ablation']})"
     if spec.get("feasibility") not in (None, "geometric"):

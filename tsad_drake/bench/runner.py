@@ -38,7 +38,7 @@ from tsad_drake.scenes import generate_scenario
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
-             "closed_loop", "motion", "world", "variant")
+             "closed_loop", "motion", "world", "variant", "sensor", "segmentation")
 
 
 @dc.dataclass(frozen=True)
@@ -56,6 +56,8 @@ class EpisodeSpec:
     motion: bool = False  #: verify each action at the motion level before executing it
     world: str = "geometric"  #: geometric | physics (Drake contact simulation of every action)
     variant: str = "full"  #: full | paper (TSAD's variants)
+    sensor: str = "ideal"  #: ideal | realistic (depth sensor model, `perception.sensor`)
+    segmentation: str = "label"  #: label (renderer's labels) | cluster (point cloud alone)
 
     def key(self) -> tuple:
         return tuple(getattr(self, k) for k in SPEC_KEYS)
@@ -65,7 +67,8 @@ def run_named_episode(spec: EpisodeSpec) -> dict:
     """Bench entry point: an `EpisodeSpec` (built-in scenario name + seed) -> JSON row."""
     scenario = spec_scenario(spec)
     settings = EpisodeSettings(planner=spec.planner, feasibility=spec.feasibility,
-                               ablation=spec.ablation, variant=spec.variant,
+                               ablation=spec.ablation, variant=spec.variant, sensor=spec.sensor,
+                               segmentation=spec.segmentation,
                                observer=spec.observer,
                                closed_loop=spec.closed_loop, motion=spec.motion,
                                world=spec.world)

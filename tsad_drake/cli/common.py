@@ -106,6 +106,14 @@ def thread_count(text: str) -> int:
     return value
 
 
+def add_sensor_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--sensor", choices=("ideal", "realistic"), default="ideal",
+                   help="depth sensor model: ideal (the exact rendered depth) or realistic (a "
+                        "structured-light camera: sigma(z) = 0.5 mm + 5 mm/m^2 z^2, 1 mm "
+                        "quantisation, dropout and flying pixels at depth edges; "
+                        "perception/sensor.py); the noise is drawn from --seed (default ideal)")
+
+
 def add_threads_arg(p: argparse.ArgumentParser, default: int = 1) -> None:
     p.add_argument("--threads", type=thread_count, default=default,
                    help="CPU threads for torch and the BLAS libraries (per worker process), so "

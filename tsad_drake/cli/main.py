@@ -14,6 +14,7 @@ import sys
 from tsad_drake.cli.common import (
     Parser,
     add_scenario_args,
+    add_sensor_arg,
     check_scenario_args,
     resolve_scenario,
 )
@@ -47,6 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
                    help="label: the renderer's label image (stands in for instance segmentation); "
                         "cluster: DBSCAN on the fused point cloud alone (default label)")
+    add_sensor_arg(p)
     from tsad_drake.cli.net import add_net_parsers
     from tsad_drake.cli.plan import add_plan_parsers
 
@@ -73,7 +75,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     check_scenario_args(args)
     out = prepare_out_dir(args.out)
     scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
-    render_and_write(scenario, out, args.segmentation)
+    render_and_write(scenario, out, args.segmentation, args.sensor, args.seed)
     return 0
 
 

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from tsad_drake.cli.common import (
+    add_sensor_arg,
     add_threads_arg,
     check_int,
     check_occluded,
@@ -42,6 +43,10 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
                         "PointNet++ prehensile network; default for tsad), geometric (gripper "
                         "swept volume against perceived point clouds; default for gp3 and the "
                         "rots planners) or oracle (true geometry; default for optimal)")
+    add_sensor_arg(p)
+    p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
+                   help="label: the renderer's label image (stands in for instance "
+                        "segmentation); cluster: the fused point cloud alone (default label)")
     p.add_argument("--variant", default="full", choices=VARIANTS,
                    help="TSAD variant: full (every option beyond the paper) or paper (the "
                         "paper's algorithm exactly; docs/design.md lists each extra); tsad only "
@@ -122,6 +127,8 @@ def _check_planner_args(args: argparse.Namespace) -> None:
     if args.ablation != "none" and not get_planner(args.planner).ablations:
         raise UsageError(f"--ablation {args.ablation} applies to planners with reward ablations "
                          f"(tsad), not to {args.planner}")
+    if args.world == "physics" and args.sensor != "ideal":
+        raise UsageError("--world physics observes with --sensor ideal only (for now)")
     if args.variant not in get_planner(args.planner).variants:
         raise UsageError(f"--variant {args.variant} applies to tsad, not to {args.planner}")
     if args.feasibility == "net":
@@ -139,6 +146,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
                                ablation=args.ablation, variant=args.variant,
+                               sensor=args.sensor, segmentation=args.segmentation,
                                observer=args.observer,
                                closed_loop=not args.open_loop, max_actions=args.max_actions,
                                motion=args.motion or args.world == "physics", world=args.world)
@@ -205,7 +213,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     out = check_bench_out(args.out)
     specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
                          feasibility=args.feasibility, ablation=args.ablation,
-                         variant=args.variant,
+                         variant=args.variant, sensor=args.sensor,
+                         segmentation=args.segmentation,
                          observer=args.observer, occluded=args.occluded,
                          closed_loop=not args.open_loop,
                          motion=args.motion or args.world == "physics", world=args.world)
