@@ -11,15 +11,18 @@ from tsad_drake.planning.tsad_config import EXTRAS
 from tsad_drake.scenario import save_scenario
 
 
+def _plan_frozen_scene(tmp_path, capsys, key: tuple[str, int], *flags: str) -> dict:
+    """`tsad plan` (TSAD, geometric model, ray-cast observer) on a frozen scene: plan.json."""
+    save_scenario(load_scene(*key), tmp_path / "scene.yaml")
+    code, _, stderr = invoke(capsys, ["plan", "--scenario", tmp_path / "scene.yaml", "--planner",
+                                      "tsad", "--feasibility", "geometric", "--observer",
+                                      "raycast", *flags, "--out", tmp_path / "out"])
+    assert code in (0, 1), stderr
+    return json.loads((tmp_path / "out" / "plan.json").read_text())
+
+
 def test_plan_with_the_paper_variant_uses_no_extra(tmp_path, capsys):
-    save_scenario(load_scene("1", 0), tmp_path / "scene.yaml")
-    out = tmp_path / "out"
-    code, stdout, stderr = invoke(capsys, ["plan", "--scenario", str(tmp_path / "scene.yaml"),
-                                   "--planner", "tsad", "--feasibility", "geometric",
-                                   "--observer", "raycast", "--variant", "paper",
-                                   "--out", str(out)])
-    assert code == 0, stderr
-    doc = json.loads((out / "plan.json").read_text())
+    doc = _plan_frozen_scene(tmp_path, capsys, ("1", 0), "--variant", "paper")
     assert doc["success"] and doc["variant"] == "paper"
     for record in doc["rounds"]:
         used = record["stats"].get("extras_used", {})
@@ -34,14 +37,8 @@ def test_bench_rows_of_the_variants_are_kept_apart():
 
 
 def test_plan_with_realistic_sensing_and_cluster_segmentation(tmp_path, capsys):
-    save_scenario(load_scene("3", 1), tmp_path / "scene.yaml")
-    out = tmp_path / "out"
-    code, _, stderr = invoke(capsys, ["plan", "--scenario", str(tmp_path / "scene.yaml"),
-                                      "--planner", "tsad", "--feasibility", "geometric",
-                                      "--observer", "raycast", "--sensor", "realistic",
-                                      "--segmentation", "cluster", "--out", str(out)])
-    assert code in (0, 1), stderr
-    doc = json.loads((out / "plan.json").read_text())
+    doc = _plan_frozen_scene(tmp_path, capsys, ("3", 1), "--sensor", "realistic",
+                             "--segmentation", "cluster")
     assert doc["sensor"] == "realistic" and doc["settings"]["segmentation"] == "cluster"
     assert doc["success"], doc["failure_reason"]
 
