@@ -24,7 +24,8 @@ system-deps:
 $(STAMP): pyproject.toml | system-deps
 	@command -v $(PYTHON) >/dev/null || { echo "need $(PYTHON)"; exit 1; }
 	[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
+	# setuptools >= 70 builds wheels without the separate `wheel` package (make wheel-check)
+	$(PY) -m pip install -q --upgrade pip 'setuptools>=70'
 	# torch first: the CPU wheel on this disk (a bare `torch` would pull a CUDA build)
 	$(PY) -m pip install -q torch==2.13.0
 	$(PY) -m pip install -q -e '.[dev]'

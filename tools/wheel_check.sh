@@ -9,7 +9,8 @@ repo="$(cd "$(dirname "$0")/.." && pwd)"
 py="$repo/.venv/bin/python"
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
-"$py" -m pip wheel -q --no-deps --no-build-isolation -w "$tmp/dist" "$repo" 2>/dev/null
+"$py" -m pip wheel -q --no-deps --no-build-isolation -w "$tmp/dist" "$repo" > "$tmp/build.log" 2>&1 \
+  || { tail -20 "$tmp/build.log"; echo "wheel-check: the wheel did not build"; exit 1; }
 "$py" -m venv "$tmp/venv"
 site="$("$tmp/venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')"
 "$py" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])' > "$site/project_dependencies.pth"
