@@ -51,7 +51,9 @@ def _unchecked(name):
     return dc.replace(scenario_defaults(name)[1], solvable_nodes=0)
 
 
-@pytest.mark.parametrize("name", BUILTIN_SCENARIOS)
+# the `real` layout (not in the headline rows) is checked with the slow tests: 48 s of the suite
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "real" else n
+                                  for n in BUILTIN_SCENARIOS])
 def test_generated_scenes_satisfy_invariants(name):
     # the solvability check is the generator's last test: skipping it keeps every other invariant
     kinds = []

@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from tsad_drake.bench.metrics import paper_table, summarise
 from tsad_drake.bench.report import write_report
 from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec, run_bench
@@ -139,6 +141,7 @@ def test_a_missed_network_target_names_the_failed_seeds(tmp_path):
             "(planning failed: sub-search 0: seeds 8, 9)") in text
 
 
+@pytest.mark.slow  # a timing study's printout (37 s)
 def test_net_timing_prints_a_row_per_batch_and_thread_count(capsys):
     from tsad_drake.bench.studies.net_timing import main
 
