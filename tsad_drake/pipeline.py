@@ -128,11 +128,14 @@ WORLD_NAMES = ("geometric", "physics")
 
 
 def physics_settings(settings: EpisodeSettings) -> EpisodeSettings:
-    """The settings a physics episode runs with: motion level on, Drake observer."""
+    """The settings a physics episode runs with: motion level on, Drake observer (ValueError for
+    an unknown world, or a sensor the physics world cannot observe with)."""
     if settings.world not in WORLD_NAMES:
         raise ValueError(f"unknown world {settings.world!r}: use one of {', '.join(WORLD_NAMES)}")
     if settings.world != "physics":
         return settings
+    if settings.sensor != "ideal" or settings.sensor_overrides:
+        raise ValueError("the physics world observes with the ideal sensor only (for now)")
     return dc.replace(settings, motion=True, observer="drake")
 
 
@@ -142,8 +145,6 @@ def make_world(settings: EpisodeSettings, scenario: Scenario, seed: int = 0) -> 
     if settings.world == "physics":
         from tsad_drake.physics.world import PhysicsWorld
 
-        if settings.sensor != "ideal" or settings.sensor_overrides:
-            raise ValueError("the physics world observes with the ideal sensor only (for now)")
         return PhysicsWorld(scenario, segmentation=settings.segmentation)
     return GeometricWorld(scenario, make_observer(settings.observer, scenario,
                                                   settings.segmentation,

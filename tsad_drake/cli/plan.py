@@ -119,6 +119,7 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
 def _check_planner_args(args: argparse.Namespace) -> None:
     """The flags `plan` and `bench` share, checked before any work; the network's weights are
     loaded once here so a missing or bad file is one line, not a failure in every episode."""
+    from tsad_drake.pipeline import EpisodeSettings, physics_settings
     from tsad_drake.planning.registry import get_planner
 
     if args.feasibility is None:
@@ -127,8 +128,10 @@ def _check_planner_args(args: argparse.Namespace) -> None:
     if args.ablation != "none" and not get_planner(args.planner).ablations:
         raise UsageError(f"--ablation {args.ablation} applies to planners with reward ablations "
                          f"(tsad), not to {args.planner}")
-    if args.world == "physics" and args.sensor != "ideal":
-        raise UsageError("--world physics observes with --sensor ideal only (for now)")
+    try:  # the settings a physics world can run with (pipeline.physics_settings decides)
+        physics_settings(EpisodeSettings(world=args.world, sensor=args.sensor))
+    except ValueError as err:
+        raise UsageError(f"--world {args.world} --sensor {args.sensor}: {err}") from None
     if args.variant not in get_planner(args.planner).variants:
         raise UsageError(f"--variant {args.variant} applies to tsad, not to {args.planner}")
     if args.feasibility == "net":

@@ -19,10 +19,11 @@ import dataclasses as dc
 import json
 import statistics
 import sys
-from pathlib import Path
 
+from tsad_drake.outputs import atomic_write_text
 from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.planning.tsad_config import EXTRAS, PAPER, TSADConfig
+from tsad_drake.runtime import pin_threads
 from tsad_drake.scenes import generate_scenario
 
 #: extras whose paper value changes only the closed loop's behaviour between rounds
@@ -51,9 +52,7 @@ def configs(only: list[str], closed_loop: bool = True, add: bool = False,
 
 
 def _episode(job: tuple[str, str, int, EpisodeSettings]) -> dict:
-    import torch
-
-    torch.set_num_threads(1)
+    pin_threads(1)
     label, scenario_name, seed, settings = job
     row = run_settings(generate_scenario(scenario_name, seed), seed, settings)
     used: dict[str, int] = {}
@@ -122,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"({row['num_actions']} actions)", file=sys.stderr, flush=True)
     print(table(rows, list(settings)))
     if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=1))
+        atomic_write_text(args.json, json.dumps(rows, indent=1))
     return 0
 
 
