@@ -69,7 +69,8 @@ def test_own_planner_runs_a_closed_loop_episode_without_falls():
 
 
 def test_plan_yaml_scene_plans_a_scene_written_by_tsad_scene(tmp_path):
-    from tests.planning.test_tsad import load_scene
+    from frozen_scenes import load_scene
+
     from tsad_drake.scenario import save_scenario
 
     save_scenario(load_scene("1", 1), tmp_path / "scene.yaml")
@@ -82,7 +83,7 @@ def test_plan_yaml_scene_plans_a_scene_written_by_tsad_scene(tmp_path):
 
 def test_sweep_parameter_changes_the_search_it_names():
     example = _load("sweep_parameter")
-    from tests.planning.test_tsad import load_scene
+    from frozen_scenes import load_scene
 
     rows = example.sweep("iterations", [20, 40], {0: load_scene("1", 0)}, "paper")
     assert [r["value"] for r in rows] == [20, 40]

@@ -28,7 +28,8 @@ def test_importing_the_package_loads_neither_drake_nor_torch():
 def test_an_episode_through_the_public_api_retrieves_the_target():
     import math
 
-    from tests.planning.test_tsad import load_scene
+    from frozen_scenes import load_scene
+
     from tsad_drake.planning.types import Action
 
     scenario = load_scene("1", 0)  # generate_scenario("1", 0), frozen

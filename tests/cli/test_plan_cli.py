@@ -3,8 +3,8 @@
 import json
 
 from cli_harness import invoke
+from frozen_scenes import load_scene
 
-from tests.planning.test_tsad import load_scene
 from tsad_drake.bench.report import _label
 from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec
 from tsad_drake.planning.tsad_config import EXTRAS

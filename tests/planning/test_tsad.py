@@ -2,12 +2,11 @@
 model confirms, determinism, budgets; feasibility models against the generator's ground truth."""
 
 import dataclasses as dc
-import json
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
+from frozen_scenes import load_scene
 
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
@@ -20,23 +19,13 @@ from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.planning.tsad import plan_tsad
 from tsad_drake.planning.tsad_config import TSADConfig
 from tsad_drake.planning.types import Action
-from tsad_drake.scenario import GridConfig, GripperConfig, ObjectConfig, Scenario, ShelfConfig
+from tsad_drake.scenario import ObjectConfig, Scenario
 from tsad_drake.scenario_generator import target_blockers
 
 #: generated scenes (frozen as JSON, so generator changes do not move them) that TSAD solves with
 #: the oracle; 1/0 needs a non-blocker relocated out of the way first
 SOLVED = [("1", 0), ("1", 1), ("3", 1)]
 CONFIG = TSADConfig()
-SCENES = Path(__file__).parent / "scenes"
-
-
-def load_scene(name: str, seed: int) -> Scenario:
-    data = json.loads((SCENES / f"scene_{name}_{seed}.json").read_text())
-    return Scenario(**{**data, "shelf": ShelfConfig(**data["shelf"]), "grid": GridConfig(**data["grid"]),
-                       "gripper": GripperConfig(**data["gripper"]),
-                       "objects": [ObjectConfig(**o) for o in data["objects"]]})
-
-
 def _cyl(name, x, y, r=0.03):
     return ObjectConfig(name=name, kind="cylinder", shape="cylinder", size=[r, 0.15], x=x, y=y)
 

@@ -4,8 +4,8 @@ import dataclasses as dc
 
 import numpy as np
 import pytest
+from frozen_scenes import load_scene
 
-from tests.planning.test_tsad import load_scene
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
