@@ -6,7 +6,7 @@ import json
 import math
 from pathlib import Path
 
-from tsad_drake.bench.metrics import paper_table
+from tsad_drake.bench.metrics import paper_table, summarise, wilson_interval
 from tsad_drake.errors import InputFileError
 from tsad_drake.outputs import atomic_write, atomic_write_text
 
@@ -117,6 +117,12 @@ def _label(spec: dict) -> str:
         label += " occluded"
     if spec.get("motion"):
         label += " +motion"
+    if spec.get("world", "geometric") != "geometric":
+        label += f" {spec['world']} world"
+    if spec.get("observer", "raycast") != "raycast":
+        label += f" {spec['observer']} observer"
+    if spec.get("closed_loop") is False:
+        label += " open loop"
     return label
 
 
@@ -125,10 +131,55 @@ def _order(label: str) -> tuple:
     return (PLANNER_ORDER.index(base) if base in PLANNER_ORDER else 99, label)
 
 
+#: row fields that make two rows of the same (settings, seed) the same episode's result
+RESULT_FIELDS = ("success", "num_actions", "falls", "failure_reason")
+
+
+def _spec_key(spec: dict) -> str:
+    return json.dumps(spec, sort_keys=True)
+
+
+def merge_documents(documents: list[tuple[str, dict]]) -> list[dict]:
+    """Bench results of the same settings (a run split by seed ranges, or run twice) merged into
+    one document per settings: rows by seed, summary recomputed. The same seed with a different
+    result in two files is a conflict (InputFileError naming both files)."""
+    merged: dict[str, dict] = {}
+    sources: dict[str, dict[int, str]] = {}
+    for name, doc in documents:
+        key = _spec_key(doc["spec"])
+        target = merged.setdefault(key, {**doc, "rows": [], "sources": []})
+        target["sources"].append(name)
+        seen = sources.setdefault(key, {})
+        by_seed = {r["seed"]: r for r in target["rows"]}
+        for row in doc["rows"]:
+            old = by_seed.get(row["seed"])
+            if old is None:
+                target["rows"].append(row)
+                by_seed[row["seed"]] = row
+                seen[row["seed"]] = name
+            elif any(old.get(f) != row.get(f) for f in RESULT_FIELDS):
+                raise InputFileError(
+                    f"{seen[row['seed']]} and {name} disagree on seed {row['seed']} of "
+                    f"{_label(doc['spec'])} scenario {doc['spec']['scenario']} "
+                    f"(success {old['success']} vs {row['success']}, actions "
+                    f"{old['num_actions']} vs {row['num_actions']}): not the same run")
+    for doc in merged.values():
+        doc["rows"].sort(key=lambda r: r["seed"])
+        doc["seeds"] = [r["seed"] for r in doc["rows"]]
+        if len(doc["sources"]) > 1:
+            doc["summary"] = summarise(doc["rows"])
+    return list(merged.values())
+
+
 def group_by_scenario(documents: list[dict]) -> dict[str, dict[str, dict]]:
+    """{scenario: {label: document}}; documents of different settings never share a label."""
     groups: dict[str, dict[str, dict]] = {}
     for doc in documents:
-        groups.setdefault(str(doc["spec"]["scenario"]), {})[_label(doc["spec"])] = doc
+        column = groups.setdefault(str(doc["spec"]["scenario"]), {})
+        label = _label(doc["spec"])
+        if label in column:  # settings the label does not show (e.g. a config fingerprint)
+            label += f" #{sum(k == label or k.startswith(label + ' #') for k in column) + 1}"
+        column[label] = doc
     return {k: dict(sorted(v.items(), key=lambda kv: _order(kv[0])))
             for k, v in sorted(groups.items())}
 
@@ -324,7 +375,28 @@ def write_report(documents: list[dict], out: Path) -> None:
     atomic_write_text(digest_path, json.dumps(digest, indent=1))
 
 
+#: one hue per planner, so two planners never share a colour; a planner's variants (other
+#: settings) are lighter shades of its hue
+PLANNER_COLOURS = {"tsad": "#1f4e9c", "gp3": "#e07b00", "rots": "#2a8a2a", "rots-star": "#c0262d",
+                   "rots-star-search": "#7b3fa0", "optimal": "#555555"}
+
+
+def _colours(labels: list[str]) -> dict[str, tuple]:
+    from matplotlib.colors import to_rgb
+
+    colours, seen = {}, {}
+    for label in labels:
+        base = label.split(" ")[0].split("-paper")[0]
+        k = seen[base] = seen.get(base, -1) + 1
+        rgb = to_rgb(PLANNER_COLOURS.get(base, "#8c8c8c"))
+        mix = min(0.75, 0.22 * k)  # shade k of the planner's hue: mixed towards white
+        colours[label] = tuple(c + (1 - c) * mix for c in rgb)
+    return colours
+
+
 def _plot(groups: dict[str, dict[str, dict]], path: Path) -> None:
+    """One panel per table figure (success with its 95% Wilson interval, actions over successful
+    episodes, falls per episode), scenarios along x, one bar per settings."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -333,22 +405,38 @@ def _plot(groups: dict[str, dict[str, dict]], path: Path) -> None:
 
     scenarios = list(groups)
     labels = sorted({label for cols in groups.values() for label in cols}, key=_order)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8))
+    colours = _colours(labels)
+    panels = (("success rate (95% interval)", "success_rate"),
+              ("actions (successful episodes)", "actions_success"),
+              ("falls per episode", "falls_all"))
+    fig, axes = plt.subplots(1, len(panels), figsize=(15, 4.2))
     width = 0.8 / max(len(labels), 1)
     for k, label in enumerate(labels):
         xs = np.arange(len(scenarios)) + k * width
-        succ = [groups[s][label]["summary"]["success_rate"] if label in groups[s] else np.nan
-                for s in scenarios]
-        acts = [groups[s][label]["summary"]["actions_success"] if label in groups[s] else np.nan
-                for s in scenarios]
-        axes[0].bar(xs, succ, width, label=label)
-        axes[1].bar(xs, [np.nan if a is None else a for a in acts], width, label=label)
-    for ax, title in zip(axes, ("success rate", "actions (successful episodes)")):
+        summaries = [groups[s][label]["summary"] if label in groups[s] else None for s in scenarios]
+        for ax, (_, field) in zip(axes, panels):
+            values = [np.nan if s is None or s.get(field) is None else s[field] for s in summaries]
+            errors = None
+            if field == "success_rate":
+                errors = np.array([[0.0, 0.0] if s is None else
+                                   [s["success_rate"] - _interval(s)[0], _interval(s)[1] - s["success_rate"]]
+                                   for s in summaries]).T.clip(min=0)
+            ax.bar(xs, values, width, yerr=errors, capsize=2, color=colours[label], label=label,
+                   error_kw={"elinewidth": 0.8, "ecolor": "#222222"})
+    for ax, (title, _) in zip(axes, panels):
         ax.set_xticks(np.arange(len(scenarios)) + 0.4 - width / 2)
         ax.set_xticklabels([f"scenario {s}" for s in scenarios])
         ax.set_title(title)
     axes[0].set_ylim(0, 1.05)
-    axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
+
+
+def _interval(summary: dict) -> tuple[float, float]:
+    """The summary's 95% success interval (recomputed for files from before it was recorded)."""
+    if summary.get("success_interval_95"):
+        return tuple(summary["success_interval_95"])
+    n = summary["episodes"]
+    return wilson_interval(round(summary["success_rate"] * n), n)

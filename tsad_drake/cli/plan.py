@@ -111,7 +111,10 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
 
     p = sub.add_parser("report", help="collect bench JSON files into a results page",
                        description="Collect `tsad bench` JSON files into markdown tables in the "
-                                   "paper's format, a JSON digest and a plot.")
+                                   "paper's format, a JSON digest and a plot. Files of the same "
+                                   "settings (a run split by seed ranges across machines) are "
+                                   "merged by seed; the same seed with different results in two "
+                                   "files is refused.")
     p.add_argument("inputs", nargs="+", help="bench result JSON files")
     p.add_argument("--out", required=True, help="markdown file to write (plot and JSON beside it)")
 
@@ -230,16 +233,23 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from tsad_drake.bench.report import load_bench_document, report_outputs, write_report
+    from tsad_drake.bench.report import (
+        load_bench_document,
+        merge_documents,
+        report_outputs,
+        write_report,
+    )
 
     out = prepare_out_file(args.out)
     inputs = {Path(name).resolve() for name in args.inputs}
     for path in report_outputs(out):
         if path.resolve() in inputs:
             raise UsageError(f"--out {out} would overwrite the input {path}: choose another name")
-    documents = [load_bench_document(name) for name in args.inputs]
+    documents = merge_documents([(name, load_bench_document(name)) for name in args.inputs])
     write_report(documents, out)
-    print(f"wrote {out}")
+    split = sum(len(d["sources"]) > 1 for d in documents)
+    print(f"wrote {out}: {len(args.inputs)} files, {len(documents)} settings"
+          + (f" ({split} merged from split runs)" if split else ""))
     return 0
 
 

@@ -1,0 +1,72 @@
+"""`tsad report` on a run split by seed ranges: the same page as the whole run; conflicting
+halves refused with one line; documents of different settings never share a column."""
+
+import json
+
+from cli_harness import assert_clean, invoke
+
+from tsad_drake.bench.report import group_by_scenario, merge_documents
+
+
+def _bench(capsys, out, seed_start, episodes):
+    result = invoke(capsys, ["bench", "--scenario", "3", "--planner", "gp3", "--feasibility",
+                             "oracle", "--seed-start", seed_start, "--episodes", episodes,
+                             "--out", out])
+    assert_clean(result, codes=(0,))
+
+
+def _tables(page):
+    """The page's tables without what differs between two runs of the same episodes: the header
+    (the machine), the plot's file name and wall-clock planning times."""
+    text = page.read_text()
+    return [line for line in text[text.index("## Scenario"):].splitlines()
+            if "planning time" not in line.lower() and not line.startswith("![")]
+
+
+def _untimed(digest):
+    return {s: {label: {k: v for k, v in summary.items() if "time" not in k}
+                for label, summary in columns.items()} for s, columns in digest.items()}
+
+
+def test_two_halves_report_the_same_table_as_the_whole_run(tmp_path, capsys):
+    whole, first, second = (tmp_path / f"{n}.json" for n in ("whole", "first", "second"))
+    _bench(capsys, whole, 0, 2)
+    _bench(capsys, first, 0, 1)
+    _bench(capsys, second, 1, 1)
+    code, out, _ = invoke(capsys, ["report", whole, "--out", tmp_path / "page_whole.md"])
+    assert code == 0
+    code, out, _ = invoke(capsys, ["report", second, first, "--out", tmp_path / "page_split.md"])
+    assert code == 0 and "1 merged from split runs" in out
+    assert _tables(tmp_path / "page_split.md") == _tables(tmp_path / "page_whole.md")
+    digest = json.loads((tmp_path / "page_split.md").with_suffix(".json").read_text())
+    whole_digest = json.loads((tmp_path / "page_whole.md").with_suffix(".json").read_text())
+    assert _untimed(digest) == _untimed(whole_digest)
+    assert digest["3"]["gp3 [oracle]"]["episodes"] == 2
+
+    # the same seed with another result in a third file: one line, exit 2, nothing written
+    doc = json.loads(first.read_text())
+    doc["rows"][0]["success"] = not doc["rows"][0]["success"]
+    doc["rows"][0]["failure_reason"] = "" if doc["rows"][0]["success"] else "edited"
+    edited = tmp_path / "edited.json"
+    edited.write_text(json.dumps(doc))
+    result = invoke(capsys, ["report", first, second, edited, "--out", tmp_path / "bad.md"])
+    assert_clean(result, codes=(2,))
+    assert "disagree on seed 0" in result[2] and "edited.json" in result[2]
+    assert not (tmp_path / "bad.md").exists()
+
+
+def _doc(spec: dict, seeds: list[int]) -> dict:
+    rows = [{"seed": s, "success": True, "num_actions": 2, "falls": 0, "planning_time_s": 1.0}
+            for s in seeds]
+    return {"spec": spec, "rows": rows, "summary": {"episodes": len(rows), "success_rate": 1.0}}
+
+
+def test_different_settings_stay_apart_and_identical_rows_merge_once():
+    base = {"scenario": "1", "planner": "tsad", "feasibility": "geometric"}
+    docs = merge_documents([("a", _doc(base, [0, 1])), ("b", _doc(base, [1, 2])),
+                            ("c", _doc({**base, "world": "physics"}, [0])),
+                            ("d", _doc({**base, "config": "f00d"}, [0]))])
+    assert [len(d["rows"]) for d in docs] == [3, 1, 1]  # seed 1 in both a and b counted once
+    assert docs[0]["summary"]["episodes"] == 3 and docs[0]["sources"] == ["a", "b"]
+    columns = group_by_scenario(docs)["1"]
+    assert set(columns) == {"tsad", "tsad physics world", "tsad #2"}
