@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from tsad_drake.outputs import OutputDir
+from tsad_drake.runtime import detail
 from tsad_drake.scenario import Scenario, save_scenario
 
 OUTPUT_FILES = ("depth.npy", "depth.png", "labels.npy", "cloud.ply", "segments.npy",
@@ -114,6 +115,6 @@ def render_and_write(scenario: Scenario, out: OutputDir | Path, segmentation: st
     print(f"scenario {scenario.name} seed {scenario.seed}: {len(scenario.objects)} objects, "
           f"target {scenario.target}; station built in {t_build:.2f} s, "
           f"{len(observation.views)} views + {segmentation} segmentation in {t_observe:.2f} s")
-    print(summary_table(observation.scene))
+    detail(summary_table(observation.scene))
     print(f"wrote {', '.join(OUTPUT_FILES)} to {out}")
     return summary

@@ -70,3 +70,26 @@ def test_console_script_help_and_bad_input():
     bad = subprocess.run(exe + ["scene", "--scenario", "9", "--out", "x.yaml"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+
+
+def test_version_quiet_and_verbose(tmp_path, capsys, monkeypatch):
+    from tsad_drake import __version__
+    from tsad_drake.runtime import VERBOSITY_ENV
+
+    monkeypatch.setenv(VERBOSITY_ENV, "1")  # restored after the test (main() sets it per call)
+    code, out, _ = run_cli(capsys, "--version")
+    assert code == 0 and out.startswith(f"tsad_drake {__version__} (drake ") and "torch" in out
+    assert_one_line_exit_2(run_cli(capsys, "-q", "-v", "scene", "--scenario", "3"))
+    scene = tmp_path / "scene.yaml"
+    save_scenario(generate_scenario("3", 1), scene)
+    plan = ["plan", "--scenario", scene, "--planner", "gp3", "--feasibility", "oracle",
+            "--observer", "raycast"]
+    code, loud, _ = run_cli(capsys, *plan, "--out", tmp_path / "loud")
+    code_q, quiet, _ = run_cli(capsys, "--quiet", *plan, "--out", tmp_path / "quiet")
+    assert code == code_q and "1. move" in loud and "1. move" not in quiet
+    verdict = [text.splitlines()[-2].rsplit(", planning", 1)[0] for text in (loud, quiet)]
+    assert verdict[0] == verdict[1] and quiet.splitlines()[-1].endswith("quiet/plan.json")
+    code, out, err = run_cli(capsys, "--verbose", "bench", "--scenario", "3", "--planner", "gp3",
+                             "--feasibility", "oracle", "--episodes", "1", "--out",
+                             tmp_path / "bench.json")
+    assert code == 0 and "seed 0: " in err and " actions, " in err

@@ -32,7 +32,7 @@ from tsad_drake.errors import InputFileError, RunFailure, UsageError
 from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.prehensile.checkpoint import weights_digest
-from tsad_drake.runtime import pin_threads
+from tsad_drake.runtime import debug, pin_threads
 from tsad_drake.scenario import Scenario, scene_digest
 from tsad_drake.scenes import generate_scenario
 
@@ -245,6 +245,9 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
         ok = sum(r["success"] for r in done.values())
         bar.set_postfix(success=f"{ok}/{len(done)}")
         bar.update(1)
+        debug(f"seed {row['seed']}: {'success' if row['success'] else row['failure_reason']}, "
+              f"{row['num_actions']} actions, {row['falls']} falls, "
+              f"{row.get('wall_time_s', 0.0):.1f} s")
 
     kept = f"of {len(specs)} episodes kept in {rows_path}; run the same command again to resume"
     try:

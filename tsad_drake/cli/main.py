@@ -7,7 +7,6 @@ Bad input ends with one line on stderr and exit status 2; a planning failure is 
 from __future__ import annotations
 
 import argparse
-import logging
 import os
 import sys
 
@@ -20,7 +19,35 @@ from tsad_drake.cli.common import (
 )
 from tsad_drake.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, RunFailure, UsageError
 from tsad_drake.outputs import prepare_out_dir, prepare_out_file
-from tsad_drake.runtime import pin_threads
+from tsad_drake.runtime import NORMAL, QUIET, VERBOSE, pin_threads, set_verbosity
+
+
+def version_line() -> str:
+    """`tsad --version`: this package's version and the versions it runs on."""
+    from importlib import metadata
+
+    from tsad_drake import __version__
+
+    def version(name: str) -> str:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return "not installed"
+
+    return (f"tsad_drake {__version__} (drake {version('drake')}, torch {version('torch')}, "
+            f"open3d {version('open3d')}, python {sys.version.split()[0]})")
+
+
+class VersionAction(argparse.Action):
+    """--version: one unwrapped line (argparse's own action wraps it at the terminal's width)."""
+
+    def __init__(self, option_strings, dest, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="print the versions of tsad_drake, Drake, torch, open3d and Python")
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_line())
+        parser.exit(0)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -28,6 +55,13 @@ def build_parser() -> argparse.ArgumentParser:
         "TSAD on Drake: target retrieval from a shelf with lateral access. A UR5e with a wrist "
         "depth camera observes the shelf, perception segments the objects, and TSAD plans which "
         "blockers to move, where, and from which angle."))
+    parser.add_argument("--version", action=VersionAction)
+    loud = parser.add_mutually_exclusive_group()
+    loud.add_argument("-q", "--quiet", action="store_true",
+                      help="print results and errors only: no progress bars or per-step lines")
+    loud.add_argument("-v", "--verbose", action="store_true",
+                      help="also print a line per finished bench episode and Drake's INFO log "
+                           "(on stderr)")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
 
     p = sub.add_parser("scene", help="generate a scenario and write it as YAML",
@@ -88,7 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
     import pydrake.common  # noqa: F401  (hooks the "drake" logger's level to Drake's own)
 
-    logging.getLogger("drake").setLevel(logging.WARNING)  # Drake's INFO lines are not for users
+    # Drake's INFO lines are not for users unless they ask (--verbose)
+    set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
     from tsad_drake.cli.net import NET_COMMANDS
     from tsad_drake.cli.plan import PLAN_COMMANDS
 

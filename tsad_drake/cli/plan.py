@@ -17,6 +17,7 @@ from tsad_drake.cli.common import (
 )
 from tsad_drake.errors import UsageError
 from tsad_drake.outputs import prepare_out_dir, prepare_out_file
+from tsad_drake.runtime import detail, show_progress
 
 PLANNER_NAMES = ("tsad", "gp3", "rots", "rots-star", "rots-star-search", "optimal")
 FEASIBILITY_NAMES = ("net", "geometric", "oracle")
@@ -162,13 +163,13 @@ def cmd_plan(args: argparse.Namespace) -> int:
     print(f"planner {args.planner} ({args.feasibility}) on scenario {scenario.name} seed "
           f"{args.seed}: theta* = {result.get('theta_star_deg')} deg")
     for i, a in enumerate(result["actions"]):
-        print(f"  {i + 1:2d}. move {a['object']:<8} pick at {a['theta_pick_deg']:+5.0f} deg -> "
+        detail(f"  {i + 1:2d}. move {a['object']:<8} pick at {a['theta_pick_deg']:+5.0f} deg -> "
               f"({a['place_xy'][0]:.3f}, {a['place_xy'][1]:.3f}) place at "
               f"{a['theta_place_deg']:+5.0f} deg  [sub-search {a['sub_search']}]")
     if args.world == "physics":
         for i, a in enumerate(result["actions"]):
             if "physics" in a:
-                print(f"  physics {i + 1:2d}: {physics_line(a['physics'])}")
+                detail(f"  physics {i + 1:2d}: {physics_line(a['physics'])}")
     if args.motion or args.world == "physics":
         motion = result["motion"]
         share = result.get("motion_feasible_share")
@@ -177,7 +178,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
               f"{'-' if share is None else f'{share:.0%}'} of checked actions motion-feasible")
         for i, m in enumerate(motion):
             if not m["verified"]:
-                print(f"  action {i + 1}: {m['failure']}")
+                detail(f"  action {i + 1}: {m['failure']}")
         print(f"wrote {out / 'replay.html'} and {out / 'scene.dmd.yaml'}")
     verdict = "target retrieved" if result["success"] else f"FAILED: {result['failure_reason']}"
     print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
@@ -225,7 +226,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
                          closed_loop=not args.open_loop,
                          motion=args.motion or args.world == "physics", world=args.world)
              for i in range(args.episodes)]
-    document = run_bench(specs, out, workers=args.workers, threads=args.threads)
+    document = run_bench(specs, out, workers=args.workers, threads=args.threads,
+                         progress=show_progress())
     label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"
     print(paper_table({label: document["summary"]}))
     print(f"wrote {out}")

@@ -23,6 +23,7 @@ from tsad_drake.errors import InputFileError
 from tsad_drake.outputs import atomic_write
 from tsad_drake.planning.types import Action, PlanningState
 from tsad_drake.prehensile.encoding import NUM_FEATURES, WALL_ID, encode_batch, state_cloud
+from tsad_drake.runtime import show_progress
 
 SCENARIO_TYPES = ("1", "2", "3", "real")
 SPLITS = ("train", "val", "test")
@@ -267,7 +268,8 @@ def generate_dataset(out: Path, scenes: int, seed_start: int, observer: str = "r
 
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    bar = tqdm(total=scenes, desc="dataset scenes", unit="scene", disable=not progress)
+    bar = tqdm(total=scenes, desc="dataset scenes", unit="scene",
+               disable=not show_progress(progress))
     for first in range(seed_start, seed_start + scenes, shard_size):
         count = min(shard_size, seed_start + scenes - first)
         path = out / shard_name(first, count, observer)

@@ -27,6 +27,7 @@ from tsad_drake.prehensile.network import (
     object_presence,
     query_scores,
 )
+from tsad_drake.runtime import show_progress
 
 BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-object blocker loss against the reach loss
 
@@ -132,7 +133,7 @@ def _epoch_entry(epoch: int, running: list[float], val: dict, start: float, prog
              "val_reach_accuracy": val["reach"]["accuracy"],
              "val_collide_accuracy": val["collide"]["accuracy"],
              "minutes": round((time.perf_counter() - start) / 60, 2)}
-    if progress:
+    if show_progress(progress):
         print(f"epoch {epoch + 1}: loss {entry['train_loss']:.4f} val pickable acc "
               f"{entry['val_pickable_accuracy']:.4f} R exact {entry['val_blockers_exact']:.4f} "
               f"reach {entry['val_reach_accuracy']:.4f} collide {entry['val_collide_accuracy']:.4f}"
@@ -184,7 +185,7 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
         net.train()
         order = rng.permutation(train_rows)
         bar = tqdm(range(steps_per_epoch), desc=f"epoch {epoch + 1}/{epochs}", unit="step",
-                   disable=not progress, leave=False)
+                   disable=not show_progress(progress), leave=False)
         running, timed_out = _train_epoch(net, opt, sched, data, order, batch, pos_weight, gen,
                                           deadline, bar)
         bar.close()
@@ -231,7 +232,7 @@ def evaluate_scenes(model_factory, scenes: int, seed_start: int, observer: str =
     models: dict[tuple, object] = {}
     evaluations, seconds = 0, 0.0
     for seed in tqdm(range(seed_start, seed_start + scenes), desc="net-eval scenes", unit="scene",
-                     disable=not progress):
+                     disable=not show_progress(progress)):
         for _, state, oracle in pdata.scene_states(seed, observer):
             ws = oracle.workspace
             key = (ws.depth, ws.width)
@@ -300,7 +301,7 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
     reach_logits, block_probs, true_pick, true_reach = [], [], [], []
     pair_probs, true_sets = [], []  # per query: block probabilities and the oracle's R
     for seed in tqdm(range(seed_start, seed_start + scenes), desc="calibration scenes",
-                     disable=not progress):
+                     disable=not show_progress(progress)):
         for _, state, oracle in pdata.scene_states(seed):
             thetas = oracle.workspace.approach_angles
             labels = pdata.oracle_labels(oracle, state)
