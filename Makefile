@@ -21,14 +21,15 @@ system-deps:
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
 	fi
 
-$(STAMP): pyproject.toml | system-deps
+$(STAMP): pyproject.toml constraints.txt | system-deps
 	@command -v $(PYTHON) >/dev/null || { echo "need $(PYTHON)"; exit 1; }
 	[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
 	# setuptools >= 70 builds wheels without the separate `wheel` package (make wheel-check)
 	$(PY) -m pip install -q --upgrade pip 'setuptools>=70'
 	# torch first: the CPU wheel on this disk (a bare `torch` would pull a CUDA build)
 	$(PY) -m pip install -q torch==2.13.0
-	$(PY) -m pip install -q -e '.[dev]'
+	# the package with the tested pins of constraints.txt (pyproject.toml keeps ranges)
+	$(PY) -m pip install -q -c constraints.txt -e '.[dev,ray]'
 	touch $(STAMP)
 
 setup: system-deps $(STAMP)

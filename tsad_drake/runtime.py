@@ -13,9 +13,9 @@ import logging
 import os
 import sys
 
-#: read by OpenMP, MKL, OpenBLAS and numexpr when they load
+#: read by OpenMP, MKL, OpenBLAS, numexpr and Drake (its `Parallelism`) when they load
 THREAD_ENV_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS",
-                   "NUMEXPR_NUM_THREADS")
+                   "NUMEXPR_NUM_THREADS", "DRAKE_NUM_THREADS")
 
 
 def pin_threads(threads: int) -> None:

@@ -5,6 +5,10 @@ seeds already there, so an interrupted bench resumes where it stopped. An episod
 recorded as a failure with its reason. The final `<out>` JSON (rows + summary + machine) is
 written atomically once every episode is in.
 
+Backends: `process` (a local process pool) or `ray` (Ray tasks on a local Ray or on the cluster at
+RAY_ADDRESS). Either way one row per (settings, seed): a resumed or split run never loses or
+doubles an episode, and the same seeds give the same rows on both.
+
 Workers: each pins its CPU threads and asks the kernel to kill it when the bench's main process
 dies (Linux `PR_SET_PDEATHSIG`), so a killed bench leaves no worker behind; workers ignore SIGINT,
 and the main process answers Ctrl-C by killing them at once: finished rows stay in the rows file,
@@ -215,8 +219,54 @@ def _run_pool(todo: list[EpisodeSpec], workers: int, threads: int, record) -> No
     pool.shutdown()
 
 
+#: where bench episodes run: `process`, a pool of local processes; `ray`, Ray tasks (a local Ray
+#: started for the run, or the cluster at RAY_ADDRESS)
+BACKENDS = ("process", "ray")
+
+
+def _ray_episode(spec: EpisodeSpec, threads: int) -> dict:
+    """A Ray task: one episode in a Ray worker process with pinned threads (only the spec and the
+    JSON row cross processes; every Drake object is built and dropped inside the task)."""
+    _init_worker(threads)
+    return run_spec(spec)
+
+
+def _run_ray(todo: list[EpisodeSpec], workers: int, threads: int, record) -> None:
+    """Episodes as Ray tasks, at most `workers` at a time on a local Ray, one CPU each; with
+    RAY_ADDRESS set, on that cluster (workers then caps only the tasks in flight)."""
+    import ray
+
+    from tsad_drake.runtime import THREAD_ENV_VARS, VERBOSITY_ENV, verbosity
+
+    env = {name: str(threads) for name in THREAD_ENV_VARS}
+    env.update({VERBOSITY_ENV: str(verbosity()), "MESA_SHADER_CACHE_DISABLE": "true"})
+    address = os.environ.get("RAY_ADDRESS") or None
+    # a local Ray starts its workers at niceness 15 (Ray's `worker_niceness`): on a loaded machine
+    # they then wait behind everything else (10x slower episodes beside a test run); 0 is what the
+    # process backend's workers get
+    local = {} if address else {"num_cpus": workers, "include_dashboard": False,
+                                "_system_config": {"worker_niceness": 0}}
+    ray.init(address=address, runtime_env={"env_vars": env}, log_to_driver=False,
+             configure_logging=False, **local)
+    episode = ray.remote(num_cpus=1, max_retries=0)(_ray_episode)
+    queue, running = list(todo), []
+    try:
+        while queue or running:
+            while queue and len(running) < workers:
+                running.append(episode.remote(queue.pop(0), threads))
+            finished, running = ray.wait(running, num_returns=1)
+            try:
+                record(ray.get(finished[0]))
+            except ray.exceptions.RayError as err:  # the worker died (killed, out of memory)
+                raise RunFailure(f"a Ray worker failed: {type(err).__name__}") from None
+    finally:
+        for ref in running:
+            ray.cancel(ref, force=True)
+        ray.shutdown()
+
+
 def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
-              progress: bool = True, threads: int = 1) -> dict:
+              progress: bool = True, threads: int = 1, backend: str = "process") -> dict:
     """Run `specs` (same settings, different seeds), streaming rows; return the result document.
 
     Raises:
@@ -251,7 +301,9 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
 
     kept = f"of {len(specs)} episodes kept in {rows_path}; run the same command again to resume"
     try:
-        if workers <= 1:
+        if backend == "ray":
+            _run_ray(todo, workers, threads, record)
+        elif workers <= 1:
             _init_worker(threads)
             for spec in todo:
                 record(run_spec(spec))
@@ -267,6 +319,7 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
     rows = [done[s.seed] for s in specs]
     document = {"spec": {k: getattr(specs[0], k) for k in SPEC_KEYS},
                 "seeds": [s.seed for s in specs], "machine": machine_info(), "threads": threads,
+                "backend": backend, "workers": workers,
                 "summary": summarise(rows), "rows": rows}
     atomic_write_text(out, json.dumps(document, indent=1))
     return document

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 from pathlib import Path
 
@@ -108,6 +109,10 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
     p.add_argument("--workers", type=int, default=1,
                    help=f"episodes run in this many parallel processes (1 to {MAX_WORKERS}; "
                         "default 1)")
+    p.add_argument("--backend", choices=("process", "ray"), default="process",
+                   help="where episodes run: process (a local process pool, default) or ray (Ray "
+                        "tasks on a local Ray with --workers CPUs, or on the cluster at "
+                        "RAY_ADDRESS; needs `pip install 'tsad_drake[ray]'`)")
     p.add_argument("--out", required=True, help="result JSON file")
 
     p = sub.add_parser("report", help="collect bench JSON files into a results page",
@@ -215,6 +220,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     check_occluded(args.scenario, args.occluded)
     check_int("--episodes", args.episodes, 1, MAX_EPISODES)
     check_int("--workers", args.workers, 1, MAX_WORKERS)
+    if args.backend == "ray" and importlib.util.find_spec("ray") is None:
+        raise UsageError("--backend ray needs Ray: pip install 'tsad_drake[ray]'")
     check_seeds("--seed-start", args.seed_start, args.episodes)
     _check_planner_args(args)
     out = check_bench_out(args.out)
@@ -227,7 +234,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
                          motion=args.motion or args.world == "physics", world=args.world)
              for i in range(args.episodes)]
     document = run_bench(specs, out, workers=args.workers, threads=args.threads,
-                         progress=show_progress())
+                         progress=show_progress(), backend=args.backend)
     label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"
     print(paper_table({label: document["summary"]}))
     print(f"wrote {out}")
