@@ -10,14 +10,16 @@ what the verifier checked. `validate_motion_section` is the schema, as a functio
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
+from pydrake.common.schema import Rotation, Transform
+from pydrake.common.yaml import yaml_dump_typed
 from pydrake.geometry import Meshcat, MeshcatVisualizer
 from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective, ModelDirectives
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
@@ -195,12 +197,6 @@ def _link_sdf(name: str, mass: float, parts: list[tuple[str, tuple, tuple, str]]
             '</sdf>\n').format(quoteattr(name), "\n".join(body))
 
 
-def _yaml_quoted(text: str) -> str:
-    """`text` as a double-quoted YAML scalar (a name like `yes` or `1e3` stays a string; quotes,
-    backslashes and control characters escaped as in JSON, which YAML reads the same way)."""
-    return json.dumps(text, ensure_ascii=False)
-
-
 def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
                            X_WS: RigidTransform | None = None) -> Path:
     """Write `scene.dmd.yaml` (+ package.xml, shelf/ground/object SDFormat files) into out_dir.
@@ -211,7 +207,7 @@ def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
     poses as default free-body poses; the arm starts at HOME_Q, the fingers open. Object names
     must be safe identifiers (`scenario.check_object_name`, ScenarioError otherwise); they become
     file names through `OutputDir` (a name that would leave out_dir is refused) and are quoted in
-    the SDFormat and YAML text.
+    the SDFormat text (the YAML is Drake's `ModelDirectives` written by `yaml_dump_typed`).
     """
     for k, obj in enumerate(scenario.objects):  # also for scenarios that were never validated
         check_object_name(f"objects[{k}].name", obj.name)
@@ -231,33 +227,43 @@ def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
     out.write_text("shelf.sdf", _link_sdf("shelf", 10.0, panels))
     out.write_text("ground.sdf", _link_sdf("ground", 1.0, [
         ("ground", (0.0, 0.0, -0.01), (4.0, 4.0, 0.02), "box")]))
-    arm = ", ".join(f"{j}: [{float(q)!r}]" for j, q in zip(UR5E_JOINTS, HOME_Q, strict=True))
-    fingers = ", ".join(f"{j}: [{float(FINGER_OPEN)!r}]" for j in FINGER_JOINTS)
-    p_WS = X_WS.translation()
-    lines = ["directives:",
-             f"- add_model: {{name: ur5e, file: '{UR5E_URL}', "
-             f"default_joint_positions: {{{arm}}}}}",
-             "- add_weld: {parent: world, child: 'ur5e::base_link'}",
-             f"- add_model: {{name: gripper_2f85, file: '{GRIPPER_URL}', "
-             f"default_joint_positions: {{{fingers}}}}}",
-             "- add_weld: {parent: 'ur5e::tool0', child: 'gripper_2f85::gripper_base'}",
-             f"- add_model: {{name: ground, file: 'package://{SCENE_PACKAGE}/ground.sdf'}}",
-             "- add_weld: {parent: world, child: 'ground::ground'}",
-             f"- add_model: {{name: shelf, file: 'package://{SCENE_PACKAGE}/shelf.sdf'}}",
-             "- add_weld: {parent: world, child: 'shelf::shelf', X_PC: {translation: "
-             f"[{float(p_WS[0])!r}, {float(p_WS[1])!r}, {float(p_WS[2])!r}]}}}}"]
+    out.write_text("scene.dmd.yaml", yaml_dump_typed(scene_directives(scenario, X_WS, {
+        obj.name: out.write_text(f"{obj.name}.sdf", _link_sdf(obj.name, obj.mass, [
+            (obj.name, (0.0, 0.0, 0.0), tuple(obj.size), obj.shape)])).name
+        for obj in scenario.objects})))
+    return out.path("scene.dmd.yaml")
+
+
+def scene_directives(scenario: Scenario, X_WS: RigidTransform,
+                     object_files: dict[str, str]) -> ModelDirectives:
+    """Drake's ModelDirectives of the scene: the arm at HOME_Q with the fingers open, welded
+    ground and shelf, each object a free body at its scenario pose (`object_files`: object name
+    -> SDFormat file name in the scene package)."""
+    def model(name: str, file: str, **kwargs) -> ModelDirective:
+        return ModelDirective(add_model=AddModel(name=name, file=file, **kwargs))
+
+    def weld(parent: str, child: str, translation=(0.0, 0.0, 0.0)) -> ModelDirective:
+        X_PC = Transform(translation=[float(v) for v in translation])
+        return ModelDirective(add_weld=AddWeld(parent=parent, child=child, X_PC=X_PC))
+
+    scene = f"package://{SCENE_PACKAGE}"
+    directives = [
+        model("ur5e", UR5E_URL, default_joint_positions={
+            j: [float(q)] for j, q in zip(UR5E_JOINTS, HOME_Q, strict=True)}),
+        weld("world", "ur5e::base_link"),
+        model("gripper_2f85", GRIPPER_URL,
+              default_joint_positions={j: [float(FINGER_OPEN)] for j in FINGER_JOINTS}),
+        weld("ur5e::tool0", "gripper_2f85::gripper_base"),
+        model("ground", f"{scene}/ground.sdf"), weld("world", "ground::ground"),
+        model("shelf", f"{scene}/shelf.sdf"), weld("world", "shelf::shelf", X_WS.translation()),
+    ]
     for obj in scenario.objects:
-        sdf = out.write_text(f"{obj.name}.sdf", _link_sdf(obj.name, obj.mass, [
-            (obj.name, (0.0, 0.0, 0.0), tuple(obj.size), obj.shape)]))
-        p = (X_WS @ X_SO(obj)).translation()
-        name = _yaml_quoted(obj.name)
-        url = _yaml_quoted(f"package://{SCENE_PACKAGE}/{sdf.name}")
-        lines.append(
-            f"- add_model: {{name: {name}, file: {url}, "
-            f"default_free_body_pose: {{{name}: {{base_frame: world, translation: "
-            f"[{float(p[0])!r}, {float(p[1])!r}, {float(p[2])!r}], rotation: !Rpy {{deg: "
-            f"[0.0, 0.0, {float(math.degrees(obj.yaw))!r}]}}}}}}}}")
-    return out.write_text("scene.dmd.yaml", "\n".join(lines) + "\n")
+        X_WO = X_WS @ X_SO(obj)
+        pose = Transform(base_frame="world", translation=[float(v) for v in X_WO.translation()],
+                         rotation=Rotation(value=Rotation.Rpy(deg=[0.0, 0.0, math.degrees(obj.yaw)])))
+        directives.append(model(obj.name, f"{scene}/{object_files[obj.name]}",
+                                default_free_body_pose={obj.name: pose}))
+    return ModelDirectives(directives=directives)
 
 
 def actions_from_records(records: list[dict]) -> list[Action]:
