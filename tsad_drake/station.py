@@ -17,21 +17,17 @@ import dataclasses as dc
 
 import numpy as np
 from pydrake.geometry import (
-    ClippingRange,
-    ColorRenderCamera,
-    DepthRange,
-    DepthRenderCamera,
     MakeRenderEngineVtk,
     Meshcat,
     MeshcatVisualizer,
-    RenderCameraCore,
     RenderEngineVtkParams,
 )
 from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.sensors import CameraInfo, RgbdSensor
+from pydrake.systems.sensors import CameraConfig as DrakeCameraConfig
+from pydrake.systems.sensors import RgbdSensor
 
 from tsad_drake.scenario import ObjectConfig, Scenario
 from tsad_drake.station_ik import solve_observation_poses
@@ -73,25 +69,24 @@ class StationConfig:
         return RigidTransform([self.shelf_distance, self.shelf_lateral_offset, floor_height])
 
 
-def _render_cameras(camera: CameraConfig, renderer_name: str
-                    ) -> tuple[ColorRenderCamera, DepthRenderCamera]:
-    """Color (drives the label image) and depth cameras that image exactly like CameraConfig.
+def drake_camera_config(camera: CameraConfig, renderer_name: str) -> DrakeCameraConfig:
+    """Drake's `CameraConfig` of the wrist camera: it images exactly like our CameraConfig.
 
     Drake's VTK renderer draws a CameraInfo's principal point half a pixel up and left of where the
     CameraInfo puts it (measured on this machine: the image of CameraInfo(128, 128, fov_y) matches a
     pinhole with centre (63, 63), not the (63.5, 63.5) it reports; see Drake PR #10190). The
-    CameraInfo below is shifted by +0.5 px so that the rendered image is the pinhole of
+    principal point below is shifted by +0.5 px so that the rendered image is the pinhole of
     `CameraConfig.intrinsics()`, the one `viewpoints.raycast` draws; use those intrinsics, not the
-    sensor's CameraInfo, to back-project depth.
+    sensor's CameraInfo, to back-project depth. The camera rides on the gripper's camera body (the
+    station adds the RgbdSensor there), so Drake's own mounting fields stay at their defaults.
     """
-    f = camera.focal_length()
     cx, cy = camera.principal_point()
-    info = CameraInfo(width=camera.width, height=camera.height, focal_x=f, focal_y=f,
-                      center_x=cx + VTK_PIXEL_OFFSET, center_y=cy + VTK_PIXEL_OFFSET)
-    core = RenderCameraCore(renderer_name, info, ClippingRange(near=camera.near, far=camera.far),
-                            RigidTransform())
-    return (ColorRenderCamera(core, show_window=False),
-            DepthRenderCamera(core, DepthRange(camera.near, camera.far)))
+    return DrakeCameraConfig(
+        width=camera.width, height=camera.height,
+        focal=DrakeCameraConfig.FovDegrees(y=camera.fov_y_deg),
+        center_x=cx + VTK_PIXEL_OFFSET, center_y=cy + VTK_PIXEL_OFFSET,
+        clipping_near=camera.near, clipping_far=camera.far, z_near=camera.near, z_far=camera.far,
+        renderer_name=renderer_name, rgb=True, depth=True, label=True, show_rgb=False)
 
 
 class Station:
@@ -197,7 +192,8 @@ def MakeStation(scenario: Scenario, meshcat: Meshcat | None = None,
     plant.SetDefaultPositions(robot, np.asarray(config.home_q, dtype=float))
     plant.SetDefaultPositions(gripper, [FINGER_OPEN, FINGER_OPEN])
 
-    color_camera, depth_camera = _render_cameras(config.camera, config.renderer_name)
+    color_camera, depth_camera = drake_camera_config(config.camera,
+                                                     config.renderer_name).MakeCameras()
     camera_body = plant.GetBodyByName("camera_link", gripper)
     sensor = builder.AddSystem(RgbdSensor(plant.GetBodyFrameIdOrThrow(camera_body.index()),
                                           RigidTransform(), color_camera, depth_camera))
