@@ -205,12 +205,13 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
 
 
 def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
-                 out_dir=None) -> dict:
+                 out_dir=None, meshcat=None) -> dict:
     """`tsad plan`: one episode on a given scene, as the plan.json document.
 
     With `settings.motion`, the executed actions are verified again as one continuous motion from
     the ready pose; `motion` holds the segments, and `out_dir` gets `replay.html` (an offline
-    Meshcat recording) and `scene.dmd.yaml` (Drake model directives of the scene).
+    Meshcat recording) and `scene.dmd.yaml` (Drake model directives of the scene); a `meshcat`
+    given (`tsad plan --meshcat`) records the replay there, live.
     """
     row = run_settings(scenario, seed, settings)
     settings = physics_settings(settings)
@@ -227,7 +228,7 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
         motions = verify_plan(scenario, actions)
         row["motion"] = motion_section(scenario, motions)
         if out_dir is not None:
-            write_replay_html(scenario, actions, motions, out_dir / "replay.html")
+            write_replay_html(scenario, actions, motions, out_dir / "replay.html", meshcat)
             write_scene_directives(scenario, out_dir)
     row["scenario"] = scenario.name
     row["theta_star_deg"] = (None if row.get("theta_star_deg") is None

@@ -48,3 +48,29 @@ def test_physics_with_a_noisy_sensor_is_refused_before_work(tmp_path, capsys):
                                       "--world", "physics", "--sensor", "realistic",
                                       "--out", str(tmp_path / "out")])
     assert code == 2 and "--sensor" in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_plan_with_meshcat_serves_the_scene_and_its_motion(tmp_path, capsys, monkeypatch):
+    import urllib.request
+
+    from tsad_drake.cli import plan as plan_cli
+
+    served = {}
+
+    def keep(meshcat):  # instead of waiting for Enter: look at what Meshcat holds, while it runs
+        with urllib.request.urlopen(meshcat.web_url(), timeout=10) as page:
+            served["status"] = page.status
+        served["paths"] = [meshcat.HasPath(f"/drake/visualizer/{name}") for name in
+                           ("ur5e", "gripper_2f85", "shelf", "obj1")]
+        served["animation"] = len(meshcat.StaticHtml())
+
+    monkeypatch.setattr(plan_cli, "hold_meshcat", keep)
+    save_scenario(load_scene("3", 1), tmp_path / "scene.yaml")
+    code, out, stderr = invoke(capsys, ["plan", "--scenario", tmp_path / "scene.yaml", "--planner",
+                                        "gp3", "--feasibility", "oracle", "--observer", "raycast",
+                                        "--max-actions", "2", "--meshcat", "--out", tmp_path / "o"])
+    assert code in (0, 1), stderr
+    assert out.startswith("meshcat: http://localhost:")  # printed before planning starts
+    assert served["status"] == 200 and all(served["paths"]), served
+    doc = json.loads((tmp_path / "o" / "plan.json").read_text())
+    assert doc["motion"] and (tmp_path / "o" / "replay.html").stat().st_size > 10_000

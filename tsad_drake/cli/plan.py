@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 from tsad_drake.cli.common import (
@@ -87,6 +88,10 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                         "optimisation, dense collision check) before executing it; a rejected "
                         "action is excluded and TSAD plans again. Also writes DIR/replay.html "
                         "(offline Meshcat recording) and DIR/scene.dmd.yaml")
+    p.add_argument("--meshcat", action="store_true",
+                   help="view live in a browser: Meshcat on localhost (its URL is printed first) "
+                        "shows the scene, then plays the verified motion; implies --motion; "
+                        "waits for Enter before exiting when run from a terminal")
     p.add_argument("--out", default="out/plan", help="output directory (default out/plan)")
 
     p = sub.add_parser("bench", help="run many episodes; print a table in the paper's format",
@@ -156,13 +161,15 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
     out = prepare_out_dir(args.out)
     scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
+    meshcat = start_meshcat(scenario) if args.meshcat else None
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
                                ablation=args.ablation, variant=args.variant,
                                sensor=args.sensor, segmentation=args.segmentation,
                                observer=args.observer,
                                closed_loop=not args.open_loop, max_actions=args.max_actions,
-                               motion=args.motion or args.world == "physics", world=args.world)
-    result = plan_episode(scenario, args.seed, settings, out)
+                               motion=args.motion or args.meshcat or args.world == "physics",
+                               world=args.world)
+    result = plan_episode(scenario, args.seed, settings, out, meshcat=meshcat)
     result["threads"] = args.threads
     path = out.write_text("plan.json", json.dumps(result, indent=2))
     print(f"planner {args.planner} ({args.feasibility}) on scenario {scenario.name} seed "
@@ -189,7 +196,33 @@ def cmd_plan(args: argparse.Namespace) -> int:
     print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
           f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")
     print(f"wrote {path}")
+    if meshcat is not None:
+        hold_meshcat(meshcat)
     return 0 if result["success"] else 1
+
+
+def start_meshcat(scenario):
+    """Meshcat on localhost showing the scene at once (its URL printed before planning starts)."""
+    from pydrake.geometry import Meshcat, MeshcatParams
+
+    from tsad_drake.motion.export import SceneLayout
+
+    meshcat = Meshcat(MeshcatParams(host="localhost"))
+    layout = SceneLayout(scenario, meshcat=meshcat)
+    layout.set_objects(scenario.objects)
+    layout.diagram.ForcedPublish(layout.context)
+    print(f"meshcat: {meshcat.web_url()} (the motion plays there once planned)", flush=True)
+    return meshcat
+
+
+def hold_meshcat(meshcat) -> None:
+    """Keep Meshcat serving until Enter or Ctrl-C when a person is at the terminal."""
+    if not sys.stdin.isatty():
+        return
+    try:
+        input(f"meshcat: replay at {meshcat.web_url()}; press Enter to close it ")
+    except (EOFError, KeyboardInterrupt):
+        print()
 
 
 def physics_line(m: dict) -> str:
