@@ -228,3 +228,17 @@ def test_rows_of_other_network_weights_are_run_again(tmp_path):
     assert set(_load_rows(rows_path, specs)) == {0}
     rows_path.write_text("".join(json.dumps(r) + "\n" for r in (rows[0], undigested)))
     assert set(_load_rows(rows_path, specs)) == {0}
+
+
+def test_bench_on_a_scenario_yaml_runs_the_same_scene_every_seed(tmp_path):
+    from tsad_drake.scenario import save_scenario
+    from tsad_drake.scenes import generate_scenario
+
+    path = tmp_path / "scene.yaml"
+    save_scenario(generate_scenario("3", 1), path)
+    specs = [EpisodeSpec(scenario=str(path), seed=s, planner="gp3", feasibility="oracle")
+             for s in (5, 6)]
+    document = run_bench(specs, tmp_path / "bench.json", progress=False)
+    assert [r["seed"] for r in document["rows"]] == [5, 6]
+    assert len({r["scene_digest"] for r in document["rows"]}) == 1
+    assert all(r["num_actions"] >= 1 for r in document["rows"])

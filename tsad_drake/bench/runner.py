@@ -37,8 +37,8 @@ from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.prehensile.checkpoint import weights_digest
 from tsad_drake.runtime import debug, pin_threads
-from tsad_drake.scenario import Scenario, scene_digest
-from tsad_drake.scenes import generate_scenario
+from tsad_drake.scenario import Scenario, load_scenario, scene_digest
+from tsad_drake.scenes import BUILTIN_SCENARIOS, generate_scenario
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
@@ -84,8 +84,12 @@ def run_named_episode(spec: EpisodeSpec) -> dict:
 
 
 def spec_scenario(spec: EpisodeSpec) -> Scenario:
-    """The scene an `EpisodeSpec` names (generated from its scenario name and seed)."""
-    return generate_scenario(spec.scenario, spec.seed, occluded=spec.occluded)
+    """The scene an `EpisodeSpec` names: generated from a built-in scenario name and the seed, or
+    the scenario YAML file it names (the same scene for every seed; the seed then varies the
+    planner's randomness and the sensor's noise)."""
+    if spec.scenario in BUILTIN_SCENARIOS:
+        return generate_scenario(spec.scenario, spec.seed, occluded=spec.occluded)
+    return load_scenario(spec.scenario)
 
 
 def run_spec(spec: EpisodeSpec) -> dict:
