@@ -126,9 +126,15 @@ def _order(label: str) -> tuple:
 
 
 def group_by_scenario(documents: list[dict]) -> dict[str, dict[str, dict]]:
+    """Documents by scenario, then by label; documents whose settings share a label but whose
+    configs differ (`spec.config_digest`: `--config`/`--set`) get the digest in their label."""
     groups: dict[str, dict[str, dict]] = {}
     for doc in documents:
-        groups.setdefault(str(doc["spec"]["scenario"]), {})[_label(doc["spec"])] = doc
+        columns = groups.setdefault(str(doc["spec"]["scenario"]), {})
+        label, digest = _label(doc["spec"]), doc["spec"].get("config_digest")
+        if label in columns and columns[label]["spec"].get("config_digest") != digest:
+            label += f" config {digest}"
+        columns[label] = doc
     return {k: dict(sorted(v.items(), key=lambda kv: _order(kv[0])))
             for k, v in sorted(groups.items())}
 
