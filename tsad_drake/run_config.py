@@ -139,6 +139,8 @@ def merge(config: RunConfig, data, where: str) -> RunConfig:
                              "fields, not a value") from None
         except (RuntimeError, ValueError, TypeError, NotImplementedError) as err:
             message = " ".join(str(err).split())
+            if name == "planner" and "unknown to the schema" in message:
+                message += " (is it the planner section of another --planner?)"
             raise UsageError(f"{where}: section {name} ({type(old).__name__}): {message}") from None
     return dc.replace(config, **changes)
 
