@@ -9,6 +9,9 @@ The public API, importable from `tsad_drake` directly (each name is loaded on fi
     planning      get_planner(name), make_config(name, ablation, variant, **fields), register,
                   PlannerSpec, FeasibilityModel, make_feasibility(name, scenario, workspace),
                   make_workspace(scenario), state_from_perception(scene)
+    config        RunConfig (every setting, YAML), default_run_config(planner, ablation, variant,
+                  sensor), merge_file(config, path), apply_sets(config, ["a.b=v"]),
+                  dump_run_config(config); EpisodeSettings(config=...) runs with it
     episodes      EpisodeSettings, plan_episode(scenario, seed, settings) -> plan.json document,
                   run_episode(world, planner, model_factory, config, seed), World, GeometricWorld
     motion        verify_plan(scenario, actions), write_replay_html(scenario, actions, motions, path)
@@ -45,6 +48,11 @@ _PUBLIC = {
     "make_workspace": "tsad_drake.planning.state",
     "state_from_perception": "tsad_drake.planning.state",
     "EpisodeSettings": "tsad_drake.pipeline",
+    "RunConfig": "tsad_drake.run_config",
+    "default_run_config": "tsad_drake.run_config",
+    "merge_file": "tsad_drake.run_config",
+    "apply_sets": "tsad_drake.run_config",
+    "dump_run_config": "tsad_drake.run_config",
     "plan_episode": "tsad_drake.pipeline",
     "run_episode": "tsad_drake.execution.episode",
     "World": "tsad_drake.execution.world",

@@ -12,14 +12,16 @@ from typing import Any
 
 from tsad_drake.execution.episode import EpisodeLimits, run_episode
 from tsad_drake.execution.world import GeometricWorld, Observer, World
-from tsad_drake.perception.observe import perception_config
-from tsad_drake.perception.sensor import SensorConfig, sensor_config
+from tsad_drake.perception.observe import PerceptionConfig, perception_config
+from tsad_drake.perception.sensor import SensorConfig
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.feasibility import GeometricFeasibility, OracleFeasibility
 from tsad_drake.planning.interface import FeasibilityModel
-from tsad_drake.planning.registry import get_planner, make_config
+from tsad_drake.planning.registry import get_planner
 from tsad_drake.planning.types import Workspace
+from tsad_drake.run_config import RunConfig, config_digest, default_run_config, run_config_record
 from tsad_drake.scenario import Scenario
+from tsad_drake.station import StationConfig
 
 #: the feasibility models by name (`--feasibility`)
 FEASIBILITY_NAMES = ("net", "geometric", "oracle")
@@ -60,10 +62,23 @@ class EpisodeSettings:
     sensor: str = "ideal"  #: ideal (exact rendered depth) | realistic (`perception.sensor`)
     #: sensor fields set after the preset: ((field, value), ...), e.g. (("noise_sigma0", 0.002),)
     sensor_overrides: tuple[tuple[str, float], ...] = ()
+    #: every component's settings (`tsad --config`/`--set`); None: the defaults of the names above
+    #: with the overrides (`run_config.default_run_config`). When given, the overrides stay empty.
+    config: RunConfig | None = None
+
+    def run_config(self) -> RunConfig:
+        """The episode's effective config (ValueError on an unknown name or field)."""
+        if self.config is not None:
+            if self.planner_overrides or self.sensor_overrides:
+                raise ValueError("set planner and sensor fields in `config`, not as overrides, "
+                                 "when a config is given")
+            return self.config
+        return default_run_config(self.planner, self.ablation, self.variant, self.sensor,
+                                  dict(self.planner_overrides), dict(self.sensor_overrides))
 
     def sensor_config(self) -> SensorConfig:
         """The episode's sensor model (ValueError on an unknown name or field)."""
-        return sensor_config(self.sensor, **dict(self.sensor_overrides))
+        return self.run_config().sensor
 
 
 class RaycastObserver:
@@ -71,12 +86,17 @@ class RaycastObserver:
 
     Each call reads the scene afresh through `sensor`: observation k of an episode draws its
     noise from the seed (noise_seed, k), so an episode is repeatable and no two reads agree.
+    `perception` defaults to the pipeline for `sensor` (`perception_config`), `station` (whose
+    camera is used) to the default station.
     """
 
     def __init__(self, segmentation: str = "label", sensor: SensorConfig | None = None,
-                 noise_seed: int = 0) -> None:
+                 noise_seed: int = 0, perception: PerceptionConfig | None = None,
+                 station: StationConfig | None = None) -> None:
         self.segmentation = segmentation
         self.sensor = sensor or SensorConfig()
+        self.perception = perception or perception_config(self.sensor)
+        self.camera = (station or StationConfig()).camera
         self.noise_seed = noise_seed
         self.calls = 0
 
@@ -85,21 +105,25 @@ class RaycastObserver:
 
         seed = [self.noise_seed, self.calls]
         self.calls += 1
-        return observe_raycast(truth, segmentation=self.segmentation, sensor=self.sensor,
-                               config=perception_config(self.sensor), noise_seed=seed).scene
+        return observe_raycast(truth, camera=self.camera, segmentation=self.segmentation,
+                               sensor=self.sensor, config=self.perception,
+                               noise_seed=seed).scene
 
 
 class DrakeObserver:
     """Observation through the Drake station: built once, objects moved for each new observation
-    (noise seeded as in `RaycastObserver`)."""
+    (noise seeded, configs defaulted as in `RaycastObserver`)."""
 
     def __init__(self, scenario: Scenario, segmentation: str = "label",
-                 sensor: SensorConfig | None = None, noise_seed: int = 0) -> None:
+                 sensor: SensorConfig | None = None, noise_seed: int = 0,
+                 perception: PerceptionConfig | None = None,
+                 station: StationConfig | None = None) -> None:
         from tsad_drake.station import MakeStation
 
-        self.station = MakeStation(scenario)
+        self.station = MakeStation(scenario, config=station)
         self.segmentation = segmentation
         self.sensor = sensor or SensorConfig()
+        self.perception = perception or perception_config(self.sensor)
         self.noise_seed = noise_seed
         self.calls = 0
 
@@ -110,16 +134,18 @@ class DrakeObserver:
         seed = [self.noise_seed, self.calls]
         self.calls += 1
         return observe(self.station, segmentation=self.segmentation, sensor=self.sensor,
-                       config=perception_config(self.sensor), noise_seed=seed).scene
+                       config=self.perception, noise_seed=seed).scene
 
 
 def make_observer(name: str, scenario: Scenario, segmentation: str = "label",
-                  sensor: SensorConfig | None = None, noise_seed: int = 0) -> Observer:
+                  sensor: SensorConfig | None = None, noise_seed: int = 0,
+                  perception: PerceptionConfig | None = None,
+                  station: StationConfig | None = None) -> Observer:
     """The observer called `name` ("raycast" or "drake") for scenes like `scenario`."""
     if name == "raycast":
-        return RaycastObserver(segmentation, sensor, noise_seed)
+        return RaycastObserver(segmentation, sensor, noise_seed, perception, station)
     if name == "drake":
-        return DrakeObserver(scenario, segmentation, sensor, noise_seed)
+        return DrakeObserver(scenario, segmentation, sensor, noise_seed, perception, station)
     raise ValueError(f"unknown observer {name!r}: use raycast or drake")
 
 
@@ -134,21 +160,23 @@ def physics_settings(settings: EpisodeSettings) -> EpisodeSettings:
         raise ValueError(f"unknown world {settings.world!r}: use one of {', '.join(WORLD_NAMES)}")
     if settings.world != "physics":
         return settings
-    if settings.sensor != "ideal" or settings.sensor_overrides:
+    if settings.sensor != "ideal" or not settings.sensor_config().ideal:
         raise ValueError("the physics world observes with the ideal sensor only (for now)")
     return dc.replace(settings, motion=True, observer="drake")
 
 
 def make_world(settings: EpisodeSettings, scenario: Scenario, seed: int = 0) -> World:
     """The world an episode acts on: geometric (with the settings' observer, its sensor noise
-    drawn from `seed`) or physics."""
+    drawn from `seed`) or physics, each built with the settings' config."""
+    config = settings.run_config()
     if settings.world == "physics":
         from tsad_drake.physics.world import PhysicsWorld
 
-        return PhysicsWorld(scenario, segmentation=settings.segmentation)
+        return PhysicsWorld(scenario, config.world, settings.segmentation, config.motion,
+                            config.station, config.perception)
     return GeometricWorld(scenario, make_observer(settings.observer, scenario,
-                                                  settings.segmentation,
-                                                  settings.sensor_config(), seed))
+                                                  settings.segmentation, config.sensor, seed,
+                                                  config.perception, config.station))
 
 
 def initial_rearrangement_set_size(scenario: Scenario) -> int:
@@ -160,8 +188,7 @@ def initial_rearrangement_set_size(scenario: Scenario) -> int:
 
 def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> dict:
     """Run one episode and return its JSON row (plan.json fields plus difficulty figures)."""
-    config = make_config(settings.planner, settings.ablation, settings.variant,
-                         **dict(settings.planner_overrides))
+    config = settings.run_config()
     settings = physics_settings(settings)
     world = make_world(settings, scenario, seed)
     action_check = None
@@ -169,13 +196,14 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
         from tsad_drake.motion.verify import is_pick_failure, motion_check
 
         def action_check(truth: Scenario, action) -> tuple[bool, str]:
-            ok, why = motion_check(truth, action)
+            ok, why = motion_check(truth, action, config.motion,
+                                   config.station.X_WS(truth.shelf.floor_height))
             return ok, ("" if ok else ("pick: " if is_pick_failure(why) else "place: ") + why)
 
     def model(truth: Scenario, workspace: Workspace) -> FeasibilityModel:
         return make_feasibility(settings.feasibility, truth, workspace)
 
-    result = run_episode(world, get_planner(settings.planner), model, config, seed,
+    result = run_episode(world, get_planner(settings.planner), model, config.planner, seed,
                          closed_loop=settings.closed_loop,
                          limits=EpisodeLimits(max_actions=settings.max_actions),
                          action_check=action_check, feasibility_name=settings.feasibility)
@@ -197,6 +225,7 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
         if isinstance(world, PhysicsWorld) and world.retrieval is not None:
             row["physics"]["retrieval"] = physics_record(world.retrieval)
     row["sensor"] = settings.sensor
+    row["config_digest"] = config_digest(config)
     row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
     first_stats = row["rounds"][0]["stats"] if row["rounds"] else {}
     if settings.planner == "optimal":
@@ -214,9 +243,11 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
     given (`tsad plan --meshcat`) records the replay there, live.
     """
     row = run_settings(scenario, seed, settings)
+    config = settings.run_config()
     settings = physics_settings(settings)
     if settings.motion:
         from tsad_drake.motion.export import (
+            SceneLayout,
             actions_from_records,
             motion_section,
             write_scene_directives,
@@ -225,13 +256,17 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
         from tsad_drake.motion.verify import verify_plan
 
         actions = actions_from_records(row["actions"])
-        motions = verify_plan(scenario, actions)
-        row["motion"] = motion_section(scenario, motions)
+        X_WS = config.station.X_WS(scenario.shelf.floor_height)
+        motions = verify_plan(scenario, actions, config.motion, X_WS)
+        row["motion"] = motion_section(scenario, motions, SceneLayout(scenario, X_WS))
         if out_dir is not None:
-            write_replay_html(scenario, actions, motions, out_dir / "replay.html", meshcat)
-            write_scene_directives(scenario, out_dir)
+            write_replay_html(scenario, actions, motions, out_dir / "replay.html", meshcat,
+                              X_WS=X_WS)
+            write_scene_directives(scenario, out_dir, X_WS)
     row["scenario"] = scenario.name
     row["theta_star_deg"] = (None if row.get("theta_star_deg") is None
                              else round(float(row["theta_star_deg"]), 6))
-    row["settings"] = dc.asdict(settings)
+    row["settings"] = {f.name: getattr(settings, f.name) for f in dc.fields(settings)
+                       if f.name != "config"}
+    row["config"] = run_config_record(config)  #: every setting (`tsad config --dump` prints it)
     return row

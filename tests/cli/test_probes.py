@@ -15,7 +15,7 @@ import pytest
 import torch
 from cli_harness import assert_clean, bench_document, changed_outside, invoke, snapshot
 
-from tsad_drake.bench.runner import EpisodeSpec, spec_scenario
+from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec, spec_scenario
 from tsad_drake.prehensile.checkpoint import save_checkpoint
 from tsad_drake.prehensile.dataset import Samples
 from tsad_drake.prehensile.encoding import NUM_FEATURES
@@ -23,8 +23,8 @@ from tsad_drake.prehensile.network import PrehensileNet
 from tsad_drake.scenario import save_scenario, scene_digest
 from tsad_drake.scenes import generate_scenario
 
-COMMANDS = ("scene", "render", "plan", "bench", "report", "dataset", "train", "net-calibrate",
-            "net-eval")
+COMMANDS = ("scene", "render", "plan", "bench", "report", "config", "dataset", "train",
+            "net-calibrate", "net-eval")
 
 
 class Evil:
@@ -74,7 +74,7 @@ def _nan_weights(document: dict) -> None:
 
 def _finished_row(seed: int) -> dict:
     spec = EpisodeSpec(scenario="3", seed=seed, planner="gp3", feasibility="geometric")
-    row = {k: getattr(spec, k) for k in EpisodeSpec.__dataclass_fields__}
+    row = {k: getattr(spec, k) for k in SPEC_KEYS} | {"seed": seed}  # as `run_spec` writes it
     row.update(success=True, num_actions=2, falls=0, planning_time_s=0.5, failure_reason="",
                scene_digest=scene_digest(spec_scenario(spec)))
     return row
@@ -363,7 +363,26 @@ PROBES = [
                            ("no-failure-reason", "failure_reason"), ("spec-list", "spec"))],
     ("report-missing-input", ["report", "{root}/none.json", "--out", "{out}/r.md"], 2, "cannot read"),
     ("report-folder-input", ["report", "{folder}", "--out", "{out}/r.md"], 2, "cannot read"),
+    # -- tsad config (and --config/--set on plan and bench)
+    ("config-no-dump", ["config", "--planner", "tsad"], 2, "--dump"),
+    ("config-unknown-field", ["config", "--planner", "tsad", "--dump", "--set", "planner.nope=1"],
+     2, "nope"),
+    ("config-unknown-section", ["config", "--planner", "gp3", "--set", "brain.x=1"], 2, "brain"),
+    ("config-wrong-type", ["config", "--planner", "tsad", "--set", "planner.iterations=many"], 2,
+     "iterations"),
+    ("config-missing-file", ["config", "--planner", "tsad", "--config", "{out}/none.yaml"], 2,
+     "cannot read"),
+    ("config-malformed-file", ["config", "--planner", "tsad", "--config", "{malformed.yaml}"], 2,
+     "not valid YAML"),
+    ("config-scenario-file", ["config", "--planner", "tsad", "--config", "{yaml}"], 2,
+     "unknown section"),
+    ("plan-config-bad-set", ["plan", "--scenario", "3", "--planner", "gp3", "--set",
+                             "motion.clearance=[1]", "--out", "{out}/p"], 2, "clearance"),
+    ("bench-config-missing", ["bench", "--scenario", "3", "--planner", "gp3", "--config",
+                              "{out}/none.yaml", "--out", "{out}/b.json"], 2, "cannot read"),
     # -- things that work
+    ("config-dump", ["config", "--planner", "rots", "--dump", "--set", "station.camera.width=64"],
+     0, ""),
     ("report-valid", ["report", "{bench.json}", "--out", "{out}/r.md"], 0, ""),
     ("scene-valid", ["scene", "--scenario", "3", "--out", "{out}/s.yaml"], 0, ""),
     ("scene-from-yaml", ["scene", "--scenario", "{yaml}", "--out", "{out}/s.yaml"], 0, ""),

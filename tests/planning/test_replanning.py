@@ -70,7 +70,7 @@ def test_rejections_veto_a_pick_angle_or_exclude_a_relocation_and_end_after_the_
                       plan=lambda *args: seen.append(args[3].excluded_actions) or stub)
     ReplanningPolicy(spec, make_config("tsad", time_budget_s=600.0), True, scene).plan(None, None, workspace,
                                                                    np.random.default_rng(0))
-    assert seen == [()]
+    assert seen == [[]]  # a fresh policy excludes nothing
 
 
 def test_the_rest_of_a_plan_is_kept_for_the_next_round_and_dropped_when_cut_short():

@@ -172,12 +172,16 @@ def merge_documents(documents: list[tuple[str, dict]]) -> list[dict]:
 
 
 def group_by_scenario(documents: list[dict]) -> dict[str, dict[str, dict]]:
-    """{scenario: {label: document}}; documents of different settings never share a label."""
+    """{scenario: {label: document}}; documents of different settings never share a label: a
+    config that differs (`spec.config_digest`: `--config`/`--set`) adds its digest to the label,
+    any other difference a number."""
     groups: dict[str, dict[str, dict]] = {}
     for doc in documents:
         column = groups.setdefault(str(doc["spec"]["scenario"]), {})
-        label = _label(doc["spec"])
-        if label in column:  # settings the label does not show (e.g. a config fingerprint)
+        label, digest = _label(doc["spec"]), doc["spec"].get("config_digest")
+        if label in column and digest and column[label]["spec"].get("config_digest") != digest:
+            label += f" config {digest}"
+        if label in column:
             label += f" #{sum(k == label or k.startswith(label + ' #') for k in column) + 1}"
         column[label] = doc
     return {k: dict(sorted(v.items(), key=lambda kv: _order(kv[0])))

@@ -36,13 +36,15 @@ from tsad_drake.errors import InputFileError, RunFailure, UsageError
 from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.prehensile.checkpoint import weights_digest
+from tsad_drake.run_config import RunConfig, config_digest, run_config_record
 from tsad_drake.runtime import debug, pin_threads
 from tsad_drake.scenario import Scenario, load_scenario, scene_digest
 from tsad_drake.scenes import BUILTIN_SCENARIOS, generate_scenario
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
-             "closed_loop", "motion", "world", "variant", "sensor", "segmentation")
+             "closed_loop", "motion", "world", "variant", "sensor", "segmentation",
+             "config_digest")
 
 
 @dc.dataclass(frozen=True)
@@ -62,21 +64,39 @@ class EpisodeSpec:
     variant: str = "full"  #: full | paper (TSAD's variants)
     sensor: str = "ideal"  #: ideal | realistic (depth sensor model, `perception.sensor`)
     segmentation: str = "label"  #: label (renderer's labels) | cluster (point cloud alone)
+    #: every component's settings (`--config`/`--set`); None: the defaults of the names above
+    config: RunConfig | None = None
 
     def key(self) -> tuple:
         return tuple(getattr(self, k) for k in SPEC_KEYS)
+
+    def settings(self) -> EpisodeSettings:
+        """The episode's settings (the names and the config above)."""
+        return EpisodeSettings(planner=self.planner, feasibility=self.feasibility,
+                               ablation=self.ablation, variant=self.variant, sensor=self.sensor,
+                               segmentation=self.segmentation, observer=self.observer,
+                               closed_loop=self.closed_loop, motion=self.motion,
+                               world=self.world, config=self.config)
+
+    def run_config(self) -> RunConfig | None:
+        """The effective config; None when the names make none (the episode's row says why)."""
+        try:
+            return self.settings().run_config()
+        except ValueError:
+            return None
+
+    @property
+    def config_digest(self) -> str | None:
+        """Fingerprint of the effective config (`run_config.config_digest`): rows of different
+        configs are never mixed, and `tsad report` keeps them apart."""
+        config = self.run_config()
+        return None if config is None else config_digest(config)
 
 
 def run_named_episode(spec: EpisodeSpec) -> dict:
     """Bench entry point: an `EpisodeSpec` (built-in scenario name + seed) -> JSON row."""
     scenario = spec_scenario(spec)
-    settings = EpisodeSettings(planner=spec.planner, feasibility=spec.feasibility,
-                               ablation=spec.ablation, variant=spec.variant, sensor=spec.sensor,
-                               segmentation=spec.segmentation,
-                               observer=spec.observer,
-                               closed_loop=spec.closed_loop, motion=spec.motion,
-                               world=spec.world)
-    row = run_settings(scenario, spec.seed, settings)
+    row = run_settings(scenario, spec.seed, spec.settings())
     row["scene_digest"] = scene_digest(scenario)
     if spec.feasibility == "net":
         row["weights_digest"] = weights_digest()
@@ -321,7 +341,9 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
     finally:
         bar.close()
     rows = [done[s.seed] for s in specs]
+    config = specs[0].run_config()
     document = {"spec": {k: getattr(specs[0], k) for k in SPEC_KEYS},
+                "config": None if config is None else run_config_record(config),
                 "seeds": [s.seed for s in specs], "machine": machine_info(), "threads": threads,
                 "backend": backend, "workers": workers,
                 "summary": summarise(rows), "rows": rows}

@@ -1,4 +1,4 @@
-"""`tsad` command line: render, scene, plan, bench.
+"""`tsad` command line: render, scene, plan, bench, report, config and the network commands.
 
 Bad input ends with one line on stderr and exit status 2; a planning failure is a result
 (exit status 1, the JSON says why).

@@ -1,4 +1,4 @@
-"""`tsad plan`, `tsad bench` and `tsad report`: the planning half of the command line."""
+"""`tsad plan`, `tsad bench`, `tsad report` and `tsad config`: the planning half of the command line."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from tsad_drake.cli.common import (
     check_seeds,
     resolve_scenario,
 )
+from tsad_drake.cli.config import add_config_args, effective_config
 from tsad_drake.errors import UsageError
 from tsad_drake.outputs import prepare_out_dir, prepare_out_file
 from tsad_drake.runtime import detail, show_progress
@@ -34,18 +35,14 @@ MAX_EPISODES = 10_000  #: largest --episodes
 MAX_WORKERS = 64  #: largest --workers
 
 
-def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
+def _add_selector_args(p: argparse.ArgumentParser) -> None:
+    """The flags that pick a run's config (`tsad plan`, `bench` and `config`), with --config/--set."""
     p.add_argument("--planner", required=True, choices=PLANNER_NAMES,
                    help="tsad (the paper's method), gp3, rots, rots-star (ROTS's sequence checked "
                         "step by step by the feasibility model, as in the paper), "
                         "rots-star-search (a stronger ROTS*: the model inside the A* search) "
                         "or optimal (exhaustive search on the oracle model, budgeted: the floor "
                         "for action counts)")
-    p.add_argument("--feasibility", default=None, choices=FEASIBILITY_NAMES,
-                   help="prehensile feasibility model the planner queries: net (the shipped "
-                        "PointNet++ prehensile network; default for tsad), geometric (gripper "
-                        "swept volume against perceived point clouds; default for gp3 and the "
-                        "rots planners) or oracle (true geometry; default for optimal)")
     add_sensor_arg(p)
     p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
                    help="label: the renderer's label image (stands in for instance "
@@ -57,6 +54,22 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
     p.add_argument("--ablation", default="none", choices=ABLATIONS,
                    help="TSAD reward ablation: no-ro drops r_o, no-re drops r_e (default none; "
                         "only for planners with reward ablations: tsad)")
+    p.add_argument("--world", default="geometric", choices=WORLD_NAMES,
+                   help="what executes and judges the actions: geometric (the 2-D corridor "
+                        "rule) or physics (each action a Drake contact simulation of the "
+                        "station, planned on the perceived poses and re-observed from the "
+                        "simulated state; implies --motion and --observer drake; about "
+                        "5-10 s of wall time per action)")
+    add_config_args(p)
+
+
+def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
+    _add_selector_args(p)
+    p.add_argument("--feasibility", default=None, choices=FEASIBILITY_NAMES,
+                   help="prehensile feasibility model the planner queries: net (the shipped "
+                        "PointNet++ prehensile network; default for tsad), geometric (gripper "
+                        "swept volume against perceived point clouds; default for gp3 and the "
+                        "rots planners) or oracle (true geometry; default for optimal)")
     p.add_argument("--observer", default=default_observer, choices=OBSERVERS,
                    help="how the robot observes: drake renders depth in the Drake station (VTK), "
                         "raycast renders the same camera with the NumPy ray caster "
@@ -65,12 +78,6 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
                    help="execute the whole plan without observing again after each sub-search")
     p.add_argument("--max-actions", type=int, default=12,
                    help=f"episode limit on pick-and-place actions (1 to {MAX_ACTIONS}; default 12)")
-    p.add_argument("--world", default="geometric", choices=WORLD_NAMES,
-                   help="what executes and judges the actions: geometric (the 2-D corridor "
-                        "rule) or physics (each action a Drake contact simulation of the "
-                        "station, planned on the perceived poses and re-observed from the "
-                        "simulated state; implies --motion and --observer drake; about "
-                        "5-10 s of wall time per action)")
     add_threads_arg(p)
 
 
@@ -123,6 +130,15 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                         "RAY_ADDRESS; needs `pip install 'tsad_drake[ray]'`)")
     p.add_argument("--out", required=True, help="result JSON file")
 
+    p = sub.add_parser("config", help="print the effective config as YAML (for --config)",
+                       description=(
+                           "Print every setting a `tsad plan` or `tsad bench` with these flags "
+                           "runs with, as YAML: the defaults the selector flags pick, then "
+                           "--config, then each --set. The output loads back with --config (and "
+                           "the same --planner) to the identical config."))
+    _add_selector_args(p)
+    p.add_argument("--dump", action="store_true", help="print the effective config as YAML")
+
     p = sub.add_parser("report", help="collect bench JSON files into a results page",
                        description="Collect `tsad bench` JSON files into markdown tables in the "
                                    "paper's format, a JSON digest and a plot. Files of the same "
@@ -133,45 +149,55 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
     p.add_argument("--out", required=True, help="markdown file to write (plot and JSON beside it)")
 
 
-def _check_planner_args(args: argparse.Namespace) -> None:
-    """The flags `plan` and `bench` share, checked before any work; the network's weights are
-    loaded once here so a missing or bad file is one line, not a failure in every episode."""
+def check_selectors(args: argparse.Namespace):
+    """The flags that pick the config (`_add_selector_args`), checked before any work; returns
+    the effective config (`cli.config.effective_config`)."""
     from tsad_drake.pipeline import EpisodeSettings, physics_settings
     from tsad_drake.planning.registry import get_planner
 
-    if args.feasibility is None:
-        args.feasibility = DEFAULT_FEASIBILITY.get(args.planner, "geometric")
-    check_int("--max-actions", args.max_actions, 1, MAX_ACTIONS)
     if args.ablation != "none" and not get_planner(args.planner).ablations:
         raise UsageError(f"--ablation {args.ablation} applies to planners with reward ablations "
                          f"(tsad), not to {args.planner}")
-    try:  # the settings a physics world can run with (pipeline.physics_settings decides)
-        physics_settings(EpisodeSettings(world=args.world, sensor=args.sensor))
-    except ValueError as err:
-        raise UsageError(f"--world {args.world} --sensor {args.sensor}: {err}") from None
     if args.variant not in get_planner(args.planner).variants:
         raise UsageError(f"--variant {args.variant} applies to tsad, not to {args.planner}")
+    config = effective_config(args)
+    try:  # the settings a physics world can run with (pipeline.physics_settings decides)
+        physics_settings(EpisodeSettings(world=args.world, sensor=args.sensor, config=config))
+    except ValueError as err:
+        raise UsageError(f"--world {args.world} --sensor {args.sensor}: {err}") from None
+    return config
+
+
+def _check_planner_args(args: argparse.Namespace):
+    """The flags `plan` and `bench` share, checked before any work; returns the effective config.
+    The network's weights are loaded once here so a missing or bad file is one line, not a
+    failure in every episode."""
+    if args.feasibility is None:
+        args.feasibility = DEFAULT_FEASIBILITY.get(args.planner, "geometric")
+    check_int("--max-actions", args.max_actions, 1, MAX_ACTIONS)
+    config = check_selectors(args)
     if args.feasibility == "net":
         from tsad_drake.prehensile.checkpoint import load_checkpoint
 
         load_checkpoint()  # a missing or mismatched weights file: one line, exit 2
+    return config
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
     check_scenario_args(args)
-    _check_planner_args(args)
+    config = _check_planner_args(args)
     from tsad_drake.pipeline import EpisodeSettings, plan_episode
 
     out = prepare_out_dir(args.out)
     scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
-    meshcat = start_meshcat(scenario) if args.meshcat else None
+    meshcat = start_meshcat(scenario, config) if args.meshcat else None
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
                                ablation=args.ablation, variant=args.variant,
                                sensor=args.sensor, segmentation=args.segmentation,
                                observer=args.observer,
                                closed_loop=not args.open_loop, max_actions=args.max_actions,
                                motion=args.motion or args.meshcat or args.world == "physics",
-                               world=args.world)
+                               world=args.world, config=config)
     result = plan_episode(scenario, args.seed, settings, out, meshcat=meshcat)
     result["threads"] = args.threads
     path = out.write_text("plan.json", json.dumps(result, indent=2))
@@ -204,14 +230,15 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0 if result["success"] else 1
 
 
-def start_meshcat(scenario):
-    """Meshcat on localhost showing the scene at once (its URL printed before planning starts)."""
+def start_meshcat(scenario, config):
+    """Meshcat on localhost showing the scene at once (its URL printed before planning starts),
+    with the shelf where the run's station config puts it."""
     from pydrake.geometry import Meshcat, MeshcatParams
 
     from tsad_drake.motion.export import SceneLayout
 
     meshcat = Meshcat(MeshcatParams(host="localhost"))
-    layout = SceneLayout(scenario, meshcat=meshcat)
+    layout = SceneLayout(scenario, config.station.X_WS(scenario.shelf.floor_height), meshcat)
     layout.set_objects(scenario.objects)
     layout.diagram.ForcedPublish(layout.context)
     print(f"meshcat: {meshcat.web_url()} (the motion plays there once planned)", flush=True)
@@ -259,7 +286,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.backend == "ray" and importlib.util.find_spec("ray") is None:
         raise UsageError("--backend ray needs Ray: pip install 'tsad_drake[ray]'")
     check_seeds("--seed-start", args.seed_start, args.episodes)
-    _check_planner_args(args)
+    config = _check_planner_args(args)
     out = check_bench_out(args.out)
     specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
                          feasibility=args.feasibility, ablation=args.ablation,
@@ -267,7 +294,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
                          segmentation=args.segmentation,
                          observer=args.observer, occluded=args.occluded,
                          closed_loop=not args.open_loop,
-                         motion=args.motion or args.world == "physics", world=args.world)
+                         motion=args.motion or args.world == "physics", world=args.world,
+                         config=config)
              for i in range(args.episodes)]
     document = run_bench(specs, out, workers=args.workers, threads=args.threads,
                          progress=show_progress(), backend=args.backend)
@@ -298,4 +326,17 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
-PLAN_COMMANDS = {"plan": cmd_plan, "bench": cmd_bench, "report": cmd_report}
+def cmd_config(args: argparse.Namespace) -> int:
+    from tsad_drake.run_config import dump_run_config
+
+    config = check_selectors(args)
+    if not args.dump:
+        raise UsageError("config: nothing to do: --dump prints the effective config")
+    print(f"# tsad config --planner {args.planner} --ablation {args.ablation} --variant "
+          f"{args.variant} --sensor {args.sensor}; load with --config and the same --planner")
+    print(dump_run_config(config), end="")
+    return 0
+
+
+PLAN_COMMANDS = {"plan": cmd_plan, "bench": cmd_bench, "report": cmd_report,
+                 "config": cmd_config}

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 from pydrake.geometry import Meshcat, MeshcatParams
+from pydrake.math import RigidTransform
 
 from tsad_drake.motion.export import SceneLayout
 from tsad_drake.motion.scene import MotionConfig
@@ -30,11 +31,13 @@ TOUCH_DEPTH = 1e-5
 
 
 def write_replay_html(scenario: Scenario, actions: list[Action], motions: list[ActionMotion],
-                      out_path: str | Path, meshcat: Meshcat | None = None) -> Path:
-    """Record every action's motion (failed ones: the object jumps where the world model puts it)."""
+                      out_path: str | Path, meshcat: Meshcat | None = None,
+                      X_WS: RigidTransform | None = None) -> Path:
+    """Record every action's motion (failed ones: the object jumps where the world model puts it);
+    `X_WS`: the shelf's pose in the world (default: the default station's)."""
     del actions  # the motions carry their actions; kept for the lead's call signature
     meshcat = meshcat or Meshcat(MeshcatParams(host="localhost"))
-    layout = SceneLayout(scenario, meshcat=meshcat)
+    layout = SceneLayout(scenario, X_WS, meshcat=meshcat)
     visualizer = layout.visualizer
     visualizer.StartRecording(True)
     t_end = 0.0

@@ -76,7 +76,8 @@ class MotionConfig:
     gripper_duration: float = 0.5  #: s, closing or opening the fingers
     sample_step: float = 0.03  #: rad, largest joint step between exported samples
     edge_step: float = 0.005  #: rad, the checker's interpolation step along each sample edge
-    home_q: tuple[float, ...] = HOME_Q  #: rad, where the arm starts and is seeded from
+    #: rad, where the arm starts and is seeded from
+    home_q: list[float] = dc.field(default_factory=lambda: list(HOME_Q))
     seed: int = 0  #: perturbed IK seeds
 
 

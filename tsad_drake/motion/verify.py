@@ -306,15 +306,15 @@ def verify_plan(scenario: Scenario, actions: list[Action], config: MotionConfig 
     return motions
 
 
-def motion_check(scenario: Scenario, action: Action, config: MotionConfig | None = None
-                 ) -> tuple[bool, str]:
+def motion_check(scenario: Scenario, action: Action, config: MotionConfig | None = None,
+                 X_WS: RigidTransform | None = None) -> tuple[bool, str]:
     """Can the arm carry out `action` in `scenario` (true objects) from the ready pose?
 
     Returns (True, "") or (False, the named failure). For a planner's closed loop: reject the
     action and plan again without it.
     """
     config = config or MotionConfig()
-    X_WS = StationConfig().X_WS(scenario.shelf.floor_height)
+    X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
     motion = plan_action(scenario, scenario.objects, action,
                          ready_q(scenario, scenario.objects, config, X_WS), config, X_WS)
     return motion.verified, motion.failure

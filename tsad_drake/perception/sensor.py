@@ -24,7 +24,7 @@ import dataclasses as dc
 import numpy as np
 
 
-@dc.dataclass(frozen=True)
+@dc.dataclass
 class SensorConfig:
     """Depth error model of the wrist camera (all zero: the exact rendering)."""
 

@@ -34,9 +34,10 @@ class PhysicsConfig:
     stud_radius: float = 0.002  #: m
     stud_proud: float = 0.0005  #: m
     #: N m / rad, proportional gains of the six UR5e joints
-    arm_kp: tuple[float, ...] = (6000.0, 6000.0, 4000.0, 800.0, 800.0, 500.0)
+    arm_kp: list[float] = dc.field(
+        default_factory=lambda: [6000.0, 6000.0, 4000.0, 800.0, 800.0, 500.0])
     #: N m s / rad, derivative gains of the six UR5e joints
-    arm_kd: tuple[float, ...] = (300.0, 300.0, 200.0, 30.0, 30.0, 15.0)
+    arm_kd: list[float] = dc.field(default_factory=lambda: [300.0, 300.0, 200.0, 30.0, 30.0, 15.0])
     #: feed-forward gravity torques computed on a robot-only plant at the desired configuration
     gravity_compensation: bool = True
     #: N, the finger actuator's effort limit: the squeeze of the closed fingers (2F-85: 20..235 N)

@@ -41,6 +41,7 @@ from tsad_drake.motion.verify import (
     ready_q,
     transfer_segment,
 )
+from tsad_drake.perception.observe import PerceptionConfig
 from tsad_drake.perception.types import PerceivedObject, PerceivedScene
 from tsad_drake.physics.command import make_command
 from tsad_drake.physics.config import PhysicsConfig
@@ -125,14 +126,17 @@ class PhysicsWorld(World):
         segmentation: how `observe()` segments ("label" or "cluster").
         motion: the motion planner's settings.
         station: the station layout (robot base, shelf placement, camera).
+        perception: the perception pipeline's settings (default: the ideal sensor's).
     """
 
     measures_physics = True
 
     def __init__(self, scenario: Scenario, config: PhysicsConfig | None = None,
                  segmentation: str = "label", motion: MotionConfig | None = None,
-                 station: StationConfig | None = None) -> None:
+                 station: StationConfig | None = None,
+                 perception: PerceptionConfig | None = None) -> None:
         super().__init__()
+        self.perception_config = perception or PerceptionConfig()
         self.config = config or PhysicsConfig()
         self.motion_config = motion or MotionConfig()
         self.station_config = station or StationConfig()
@@ -178,7 +182,8 @@ class PhysicsWorld(World):
         for body in station.object_bodies:
             X_WB = plant.EvalBodyPoseInWorld(context, self.sim.models.objects[body.name()])
             station.plant.SetFreeBodyPose(station.plant_context, body, X_WB)
-        scene = observe(station, segmentation=self.segmentation).scene
+        scene = observe(station, segmentation=self.segmentation,
+                        config=self.perception_config).scene
         self.believe(scene)
         return scene
 

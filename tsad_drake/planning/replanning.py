@@ -81,7 +81,7 @@ class ReplanningPolicy:
              rng: np.random.Generator) -> Plan:
         """The rest of the last plan if it still holds, else the planner's new plan."""
         if self.spec.exclusions:
-            self.config = dc.replace(self.config, excluded_actions=tuple(self.excluded))
+            self.config = dc.replace(self.config, excluded_actions=list(self.excluded))
         plan = (reused(self.pending, state, feasibility, workspace, frozenset(self.excluded))
                 if self.pending else None)
         if plan is not None:

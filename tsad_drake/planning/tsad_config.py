@@ -46,7 +46,8 @@ class TSADConfig:
     angle_fallbacks: int = 6  #: next-ranked angles tried when theta* yields no complete plan
     #: relocations (object, x, y) that motion planning rejected; the closed loop adds to it and
     #: plans again, and no action of the plan is one of them (at any depth, not only the first)
-    excluded_actions: tuple[tuple[str, float, float], ...] = ()
+    #: (a run-time field: a config file leaves it empty)
+    excluded_actions: list[tuple[str, float, float]] = dc.field(default_factory=list)
     #: probability that a rollout step moves a relevant object (a member of R_{theta*,s} or an
     #: object blocking a member along theta*) instead of any object; 0 is the paper's uniform
     #: random policy. Expansion also tries relevant objects' actions first when this is > 0.
