@@ -102,6 +102,8 @@ def report_outputs(out: Path) -> tuple[Path, Path, Path]:
 
 
 def _label(spec: dict) -> str:
+    if spec.get("label"):  # named by whoever made the document (`tsad sweep`: the grid point)
+        return spec["label"]
     label = spec["planner"]
     if spec.get("variant", "full") != "full":
         label += f"-{spec['variant']}"
@@ -383,16 +385,23 @@ def write_report(documents: list[dict], out: Path) -> None:
 #: settings) are lighter shades of its hue
 PLANNER_COLOURS = {"tsad": "#1f4e9c", "gp3": "#e07b00", "rots": "#2a8a2a", "rots-star": "#c0262d",
                    "rots-star-search": "#7b3fa0", "optimal": "#555555"}
+#: colours of columns that are not planners (grid points of `tsad sweep`)
+OTHER_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+                 "#7f7f7f", "#bcbd22", "#17becf")
 
 
 def _colours(labels: list[str]) -> dict[str, tuple]:
     from matplotlib.colors import to_rgb
 
     colours, seen = {}, {}
+    others = iter(OTHER_COLOURS * (len(labels) // len(OTHER_COLOURS) + 1))
     for label in labels:
         base = label.split(" ")[0].split("-paper")[0]
+        if base not in PLANNER_COLOURS:  # not a planner (a sweep's grid point): a colour each
+            colours[label] = to_rgb(next(others))
+            continue
         k = seen[base] = seen.get(base, -1) + 1
-        rgb = to_rgb(PLANNER_COLOURS.get(base, "#8c8c8c"))
+        rgb = to_rgb(PLANNER_COLOURS[base])
         mix = min(0.75, 0.22 * k)  # shade k of the planner's hue: mixed towards white
         colours[label] = tuple(c + (1 - c) * mix for c in rgb)
     return colours

@@ -85,8 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     add_sensor_arg(p)
     from tsad_drake.cli.net import add_net_parsers
     from tsad_drake.cli.plan import add_plan_parsers
+    from tsad_drake.cli.sweep import add_sweep_parser
 
     add_plan_parsers(sub, add_scenario_args)
+    add_sweep_parser(sub)
     add_net_parsers(sub)
     return parser
 
@@ -126,8 +128,10 @@ def main(argv: list[str] | None = None) -> int:
     set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
     from tsad_drake.cli.net import NET_COMMANDS
     from tsad_drake.cli.plan import PLAN_COMMANDS
+    from tsad_drake.cli.sweep import SWEEP_COMMANDS
 
-    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS, **NET_COMMANDS}
+    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS, **SWEEP_COMMANDS,
+                **NET_COMMANDS}
     try:
         return commands[args.command](args)
     except UsageError as err:

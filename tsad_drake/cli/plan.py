@@ -272,9 +272,9 @@ def physics_line(m: dict) -> str:
     return "; ".join(parts)
 
 
-def cmd_bench(args: argparse.Namespace) -> int:
-    from tsad_drake.bench.metrics import paper_table
-    from tsad_drake.bench.runner import EpisodeSpec, check_bench_out, run_bench
+def bench_specs(args: argparse.Namespace) -> tuple[list, Path]:
+    """`tsad bench`'s flags checked (everything, before any work): its episodes and its --out."""
+    from tsad_drake.bench.runner import EpisodeSpec, check_bench_out
     from tsad_drake.scenes import BUILTIN_SCENARIOS
 
     check_occluded(args.scenario, args.occluded)
@@ -297,6 +297,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
                          motion=args.motion or args.world == "physics", world=args.world,
                          config=config)
              for i in range(args.episodes)]
+    return specs, out
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from tsad_drake.bench.metrics import paper_table
+    from tsad_drake.bench.runner import run_bench
+
+    specs, out = bench_specs(args)
     document = run_bench(specs, out, workers=args.workers, threads=args.threads,
                          progress=show_progress(), backend=args.backend)
     label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"
