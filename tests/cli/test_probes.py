@@ -23,7 +23,7 @@ from tsad_drake.prehensile.network import PrehensileNet
 from tsad_drake.scenario import save_scenario, scene_digest
 from tsad_drake.scenes import generate_scenario
 
-COMMANDS = ("scene", "render", "plan", "bench", "report", "config", "dataset", "train",
+COMMANDS = ("scene", "render", "plan", "bench", "report", "config", "sweep", "dataset", "train",
             "net-calibrate", "net-eval")
 
 
@@ -200,8 +200,10 @@ PROBES = [
     ("scenario-list", ["plan", "--scenario", "{list.yaml}", "--planner", "gp3", "--out", "{out}"], 2,
      "malformed"),
     ("scenario-overlap", ["render", "--scenario", "{overlap}", "--out", "{out}"], 2, "overlap"),
-    ("bench-yaml", ["bench", "--scenario", "{yaml}", "--planner", "gp3", "--out", "{out}/b.json"], 2,
-     "built-in"),
+    ("bench-yaml-overlap", ["bench", "--scenario", "{overlap}", "--planner", "gp3", "--out",
+                            "{out}/b.json"], 2, "overlap"),
+    ("sweep-missing", ["sweep", "{out}/missing.yaml", "--out", "{out}/sw"], 2, "cannot read"),
+    ("sweep-scene-file", ["sweep", "{yaml}", "--out", "{out}/sw"], 2, "unknown to the schema"),
     # -- seeds
     ("seed-negative", ["scene", "--scenario", "3", "--seed", "-1", "--out", "{out}/s.yaml"], 2, "--seed"),
     ("seed-negative-yaml", ["scene", "--scenario", "{yaml}", "--seed", "-1", "--out", "{out}/s.yaml"],

@@ -13,8 +13,8 @@ is one grid point. Each (grid point, scenario) is one `tsad bench` run written t
     episodes: 10
     set: [planner.time_budget_s=600]
     grid:
-      planner.iteration_budget: [300, 1000]
-      planner.exploration: [0.5, 1.0]
+      planner.iterations: [60, 120, 240]
+      planner.exploration: [0.3, 1.0]
 """
 
 import dataclasses as dc
