@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-extra report lint clean
+.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-extra report lint clean
 
 all: test
 
@@ -74,7 +74,31 @@ bench: setup
 	for s in 1 2; do \
 	  $(TSAD) bench --scenario $$s --planner tsad --occluded --feasibility $(BENCH_FEASIBILITY) \
 	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s$$s-tsad-occluded.json || exit 1; done
+	$(MAKE) bench-paper
 	$(MAKE) report
+
+# The paper's TSAD as written (--variant paper): Table I rows on scenarios 1-3, Table II (the
+# reward ablations, scenario 1), Table III (occluded targets, 15 episodes), and Table IV's
+# counterpart on the `real` shelf (5 objects, 15 episodes: TSAD, GP3, ROTS*; TSAD in both variants).
+bench-paper: setup
+	mkdir -p $(BENCH_DIR)
+	for s in 1 2 3; do \
+	  $(TSAD) bench --scenario $$s --planner tsad --variant paper --feasibility $(BENCH_FEASIBILITY) \
+	    --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s$$s-tsad-paper.json || exit 1; done
+	for a in no-ro no-re; do \
+	  $(TSAD) bench --scenario 1 --planner tsad --variant paper --ablation $$a \
+	    --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/s1-tsad-paper-$$a.json || exit 1; done
+	for s in 1 2; do \
+	  $(TSAD) bench --scenario $$s --planner tsad --variant paper --occluded \
+	    --feasibility $(BENCH_FEASIBILITY) --episodes 15 --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/s$$s-tsad-paper-occluded.json || exit 1; done
+	for v in full paper; do \
+	  $(TSAD) bench --scenario real --planner tsad --variant $$v --feasibility $(BENCH_FEASIBILITY) \
+	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/real-tsad-$$v.json || exit 1; done
+	for p in gp3 rots-star; do \
+	  $(TSAD) bench --scenario real --planner $$p --feasibility $(BENCH_FEASIBILITY) \
+	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/real-$$p.json || exit 1; done
 
 # Extras: TSAD on the prehensile network and on the oracle model (scenarios 1-3, 30 episodes
 # each: the network issue's target is net within 0.03 of oracle), the stronger ROTS* variant

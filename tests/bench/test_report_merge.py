@@ -70,3 +70,27 @@ def test_different_settings_stay_apart_and_identical_rows_merge_once():
     assert docs[0]["summary"]["episodes"] == 3 and docs[0]["sources"] == ["a", "b"]
     columns = group_by_scenario(docs)["1"]
     assert set(columns) == {"tsad", "tsad physics world", "tsad #2"}
+
+
+def test_each_row_is_set_against_its_table_in_the_paper_with_its_interval():
+    from tsad_drake.bench.metrics import summarise
+    from tsad_drake.bench.report import _paper_lines, paper_counterpart
+
+    def doc(spec, successes, n=30):
+        rows = [{"seed": s, "success": s < successes, "num_actions": 3, "falls": 0,
+                 "planning_time_s": 1.0, "failure_reason": "" if s < successes else "x"}
+                for s in range(n)]
+        return {"spec": spec, "rows": rows, "summary": summarise(rows)}
+
+    tsad = {"scenario": "2", "planner": "tsad", "feasibility": "geometric"}
+    assert paper_counterpart("2", tsad)[0] == "Table I"
+    assert paper_counterpart("1", {**tsad, "ablation": "no-re"}) == ("Table II",
+                                                                       (0.90, 4.30, 4.33, 0.22, 0.23))
+    assert paper_counterpart("2", {**tsad, "occluded": True})[0] == "Table III"
+    assert paper_counterpart("real", {**tsad, "scenario": "real"})[1][0] == 0.87
+    assert paper_counterpart("2", {**tsad, "world": "physics"}) is None  # not the paper's setting
+    lines = _paper_lines("2", {"tsad-paper": doc({**tsad, "variant": "paper"}, 21),
+                               "tsad": doc(tsad, 29)})
+    # 21/30 = 0.70 has the interval 0.52-0.83: the paper's 0.93 lies above it; 29/30 contains it
+    assert "tsad-paper: success 0.70 (95% 0.52-0.83, 30 episodes)" in lines[2]
+    assert lines[2].endswith("outside: above ours") and lines[3].endswith("inside: not told apart")

@@ -19,6 +19,14 @@ PAPER_TABLE_I = {
     "3": {"tsad": (0.93, 4.71, 5.00, 0.29, 0.33), "gp3": (0.20, 3.17, 3.83, 0.17, 0.23),
           "rots": (0.67, 5.40, 5.73, 0.80, 1.10), "rots-star": (0.70, 5.81, 6.07, 0.33, 0.37)},
 }
+#: the paper's Table II (scenario 1, TSAD and its reward ablations), Table III (occluded targets,
+#: TSAD, by scenario) and Table IV (the real robot: 5 objects in a 0.40 x 0.28 m shelf, 15
+#: episodes); same fields as Table I
+PAPER_TABLE_II = {"none": (0.97, 3.72, 3.67, 0.17, 0.23), "no-ro": (0.93, 4.04, 4.07, 0.21, 0.27),
+                  "no-re": (0.90, 4.30, 4.33, 0.22, 0.23)}
+PAPER_TABLE_III = {"1": (0.93, 4.21, 4.13, 0.14, 0.27), "2": (0.93, 4.43, 4.47, 0.21, 0.27)}
+PAPER_TABLE_IV = {"tsad": (0.87, 3.69, 3.47, 0.31, 0.40), "gp3": (0.13, 3.00, 1.93, 0.00, 0.13),
+                  "rots-star": (0.60, 4.22, 3.93, 0.33, 0.33)}
 PLANNER_ORDER = ("tsad", "gp3", "rots", "rots-star", "rots-star-search", "optimal")
 #: the issues' targets: TSAD (geometric) success per scenario (the paper's), its median planning
 #: time, its action excess over `optimal`; TSAD on the network against TSAD on the oracle
@@ -244,6 +252,45 @@ def _optimality_lines(columns: dict[str, dict]) -> list[str]:
     return lines
 
 
+def paper_counterpart(scenario: str, spec: dict) -> tuple[str, tuple] | None:
+    """The paper's row for a bench run's settings ("Table I", figures), None when it has none:
+    Table I for a planner with the default settings, II for TSAD's reward ablations on scenario 1,
+    III for TSAD on occluded targets, IV for the `real` shelf."""
+    if spec.get("world", "geometric") != "geometric" or spec.get("closed_loop") is False or (
+            spec.get("sensor", "ideal") != "ideal" or spec.get("motion")):
+        return None
+    planner, ablation = spec["planner"], spec.get("ablation", "none")
+    if scenario == "real":
+        row = PAPER_TABLE_IV.get(planner)
+        return None if row is None or ablation != "none" else ("Table IV", row)
+    if spec.get("occluded"):
+        row = PAPER_TABLE_III.get(scenario) if planner == "tsad" and ablation == "none" else None
+        return None if row is None else ("Table III", row)
+    if ablation != "none":
+        return ("Table II", PAPER_TABLE_II[ablation]) if scenario == "1" else None
+    row = PAPER_TABLE_I.get(scenario, {}).get(planner)
+    return None if row is None else ("Table I", row)
+
+
+def _paper_lines(scenario: str, columns: dict[str, dict]) -> list[str]:
+    """Each column with a counterpart in the paper: our success with its 95% interval, and
+    whether the paper's figure lies inside it (then 30 episodes cannot tell the two apart)."""
+    lines = []
+    for label, doc in columns.items():
+        found = paper_counterpart(scenario, doc["spec"])
+        if found is None:
+            continue
+        table, row = found
+        s = doc["summary"]
+        low, high = _interval(s)
+        inside = low <= row[0] <= high
+        lines.append(f"- {label}: success {s['success_rate']:.2f} (95% {low:.2f}-{high:.2f}, "
+                     f"{s['episodes']} episodes); the paper's {row[0]:.2f} ({table}) lies "
+                     + ("inside: not told apart" if inside else
+                        f"outside: {'above' if row[0] > high else 'below'} ours"))
+    return ["Against the paper:", "", *lines, ""] if lines else []
+
+
 def _verdict(ok: bool, by: str) -> str:
     return "met" if ok else f"**missed** by {by}"
 
@@ -372,6 +419,7 @@ def write_report(documents: list[dict], out: Path) -> None:
             lines += [f"Paper (Table I, scenario {scenario}): " + "; ".join(
                 f"{p} success {v[0]:.2f}, actions {v[1]:.2f} / {v[2]:.2f}, "
                 f"falls {v[3]:.2f} / {v[4]:.2f}" for p, v in paper.items()), ""]
+        lines += _paper_lines(scenario, columns)
         lines += _target_lines(scenario, columns) + _difficulty_lines(columns) + [""]
         digest[scenario] = {k: d["summary"] for k, d in columns.items()}
     page, digest_path, plot = report_outputs(out)
