@@ -79,7 +79,9 @@ bench: setup
 
 # The paper's TSAD as written (--variant paper): Table I rows on scenarios 1-3, Table II (the
 # reward ablations, scenario 1), Table III (occluded targets, 15 episodes), and Table IV's
-# counterpart on the `real` shelf (5 objects, 15 episodes: TSAD, GP3, ROTS*; TSAD in both variants).
+# counterpart on the `real` shelf (5 objects, 15 episodes: TSAD in both variants, GP3, ROTS*),
+# rendered by the Drake station with realistic depth noise and cluster segmentation, as a robot sees.
+REAL_SENSING := --feasibility $(BENCH_FEASIBILITY) --observer drake --sensor realistic --segmentation cluster
 bench-paper: setup
 	mkdir -p $(BENCH_DIR)
 	for s in 1 2 3; do \
@@ -94,10 +96,10 @@ bench-paper: setup
 	    --feasibility $(BENCH_FEASIBILITY) --episodes 15 --workers $(BENCH_WORKERS) \
 	    --out $(BENCH_DIR)/s$$s-tsad-paper-occluded.json || exit 1; done
 	for v in full paper; do \
-	  $(TSAD) bench --scenario real --planner tsad --variant $$v --feasibility $(BENCH_FEASIBILITY) \
+	  $(TSAD) bench --scenario real --planner tsad --variant $$v $(REAL_SENSING) \
 	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/real-tsad-$$v.json || exit 1; done
 	for p in gp3 rots-star; do \
-	  $(TSAD) bench --scenario real --planner $$p --feasibility $(BENCH_FEASIBILITY) \
+	  $(TSAD) bench --scenario real --planner $$p $(REAL_SENSING) \
 	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/real-$$p.json || exit 1; done
 
 # Extras: TSAD on the prehensile network and on the oracle model (scenarios 1-3, 30 episodes

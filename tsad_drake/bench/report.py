@@ -6,7 +6,7 @@ import json
 import math
 from pathlib import Path
 
-from tsad_drake.bench.metrics import paper_table, summarise, wilson_interval
+from tsad_drake.bench.metrics import intervals_overlap, paper_table, summarise, wilson_interval
 from tsad_drake.errors import InputFileError
 from tsad_drake.outputs import atomic_write, atomic_write_text
 
@@ -288,7 +288,23 @@ def _paper_lines(scenario: str, columns: dict[str, dict]) -> list[str]:
                      f"{s['episodes']} episodes); the paper's {row[0]:.2f} ({table}) lies "
                      + ("inside: not told apart" if inside else
                         f"outside: {'above' if row[0] > high else 'below'} ours"))
-    return ["Against the paper:", "", *lines, ""] if lines else []
+    return ["Against the paper:", "", *lines, ""] + _overlap_lines(scenario, columns) if lines else []
+
+
+def _overlap_lines(scenario: str, columns: dict[str, dict]) -> list[str]:
+    """Pairs of the paper's planners (Table I settings, geometric model) whose 95% success
+    intervals overlap: rates these episodes cannot order."""
+    labels = [label for label, doc in columns.items()
+              if doc["spec"].get("feasibility") in (None, "geometric")
+              and (paper_counterpart(scenario, doc["spec"]) or ("",))[0] in ("Table I", "Table IV")]
+    pairs = [f"{a} / {b}" for i, a in enumerate(labels) for b in labels[i + 1:]
+             if intervals_overlap(_interval(columns[a]["summary"]), _interval(columns[b]["summary"]))]
+    if len(labels) < 2:
+        return []
+    if not pairs:
+        return [f"The success intervals of {', '.join(labels)} are pairwise disjoint.", ""]
+    return [f"Success intervals that overlap (not told apart by these episodes): "
+            f"{'; '.join(pairs)}.", ""]
 
 
 def _verdict(ok: bool, by: str) -> str:
