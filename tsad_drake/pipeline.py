@@ -186,8 +186,10 @@ def initial_rearrangement_set_size(scenario: Scenario) -> int:
     return min(len(target_blockers(scenario, th)) for th in scenario.approach_angles)
 
 
-def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> dict:
-    """Run one episode and return its JSON row (plan.json fields plus difficulty figures)."""
+def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
+                 physics_replay=None) -> dict:
+    """Run one episode and return its JSON row (plan.json fields plus difficulty figures); on
+    the physics world, `physics_replay` (a path) gets a Meshcat recording of the simulation."""
     config = settings.run_config()
     settings = physics_settings(settings)
     world = make_world(settings, scenario, seed)
@@ -224,6 +226,8 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> di
         row["physics"] = physics_figures(row["actions"])
         if isinstance(world, PhysicsWorld) and world.retrieval is not None:
             row["physics"]["retrieval"] = physics_record(world.retrieval)
+        if isinstance(world, PhysicsWorld) and physics_replay is not None:
+            world.write_replay(physics_replay)
     row["sensor"] = settings.sensor
     row["config_digest"] = config_digest(config)
     row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
@@ -240,9 +244,12 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
     With `settings.motion`, the executed actions are verified again as one continuous motion from
     the ready pose; `motion` holds the segments, and `out_dir` gets `replay.html` (an offline
     Meshcat recording) and `scene.dmd.yaml` (Drake model directives of the scene); a `meshcat`
-    given (`tsad plan --meshcat`) records the replay there, live.
+    given (`tsad plan --meshcat`) records the replay there, live. On the physics world `out_dir`
+    also gets `physics_replay.html`: the contact simulation itself, as it ran.
     """
-    row = run_settings(scenario, seed, settings)
+    replay = (out_dir / "physics_replay.html"
+              if out_dir is not None and settings.world == "physics" else None)
+    row = run_settings(scenario, seed, settings, physics_replay=replay)
     config = settings.run_config()
     settings = physics_settings(settings)
     if settings.motion:

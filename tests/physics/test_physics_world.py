@@ -199,3 +199,18 @@ def test_hydroelastic_pick_and_place():
     outcome = world.execute(Action("front", 0.0, 0.08, 0.16, 0.0))
     assert outcome.moved and outcome.placement_error_mm < 5.0 and outcome.slip_mm < 3.0
     assert outcome.fallen == [] and outcome.disturbed == []
+
+
+def test_replay_of_the_simulation_ends_where_physics_left_the_scene(placed, tmp_path):
+    from tsad_drake.motion.replay import write_trace_html
+
+    world = placed[0]
+    times = [t for t, _ in world.trace]
+    assert times[0] == 0.0 and all(b > a for a, b in zip(times, times[1:]))
+    assert times[-1] == pytest.approx(world.sim.context.get_time())
+    final = world.trace[-1][1]
+    assert np.array_equal(final, world.sim.plant.GetPositions(world.sim.plant_context))
+    page = world.write_replay(tmp_path / "physics_replay.html")
+    assert page.stat().st_size > 10_000 and "front" in page.read_text()
+    with pytest.raises(ValueError, match="positions"):  # a trace of another scene is refused
+        write_trace_html(world._start, world.X_WS, [(0.0, final[:-1])], tmp_path / "bad.html")

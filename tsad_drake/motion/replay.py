@@ -58,6 +58,25 @@ def write_replay_html(scenario: Scenario, actions: list[Action], motions: list[A
     return atomic_write_text(out_path, meshcat.StaticHtml())
 
 
+def write_trace_html(scenario: Scenario, X_WS: RigidTransform,
+                     trace: list[tuple[float, np.ndarray]], out_path: str | Path,
+                     meshcat: Meshcat | None = None) -> Path:
+    """Record a simulated run (`trace`: time and plant positions of the station's layout, as
+    `PhysicsWorld.trace` holds them) and save it as an offline page."""
+    meshcat = meshcat or Meshcat(MeshcatParams(host="localhost"))
+    layout = SceneLayout(scenario, X_WS, meshcat=meshcat)
+    if trace and len(trace[0][1]) != layout.plant.num_positions():
+        raise ValueError(f"the trace has {len(trace[0][1])} positions, the scene's plant "
+                         f"{layout.plant.num_positions()}")
+    layout.visualizer.StartRecording(True)
+    for t, q in trace:
+        layout.plant.SetPositions(layout.plant_context, q)
+        _frame(layout, float(t))
+    layout.visualizer.StopRecording()
+    layout.visualizer.PublishRecording()
+    return atomic_write_text(out_path, meshcat.StaticHtml())
+
+
 def _frame(layout: SceneLayout, t: float) -> None:
     layout.context.SetTime(t)
     layout.diagram.ForcedPublish(layout.context)

@@ -28,6 +28,7 @@ import copy
 import dataclasses as dc
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 from pydrake.math import RigidTransform
@@ -154,8 +155,17 @@ class PhysicsWorld(World):
         self.outcomes: list[ActionOutcome] = []  #: every executed action's outcome, in order
         self.motions: list[ActionMotion] = []  #: the motion each action was planned as
         self.retrieval: ActionOutcome | None = None  #: the simulated target retrieval, if any
+        #: (time, plant positions) every monitor step of every simulated motion: the replay
+        self.trace: list[tuple[float, np.ndarray]] = [
+            (0.0, self.sim.plant.GetPositions(self.sim.plant_context).copy())]
         self._arm = [self.sim.plant.GetJointByName(n, self.sim.models.robot).position_start()
                      for n in UR5E_JOINTS]
+
+    def write_replay(self, out_path) -> Path:
+        """A Meshcat recording of everything simulated so far (`trace`), as an offline page."""
+        from tsad_drake.motion.replay import write_trace_html
+
+        return write_trace_html(self._start, self.X_WS, self.trace, out_path)
 
     # -- reading the simulated state -----------------------------------------------------------
     def poses(self) -> dict[str, BodyPose]:
@@ -371,7 +381,8 @@ class PhysicsWorld(World):
             pending = [m for m in marks.values() if m > t + 1e-9]
             t = min([t + config.monitor_step, end, *pending])
             self.sim.simulator.AdvanceTo(t)
-            q = self.sim.plant.GetPositions(self.sim.plant_context)[self._arm]
+            self.trace.append((t, self.sim.plant.GetPositions(self.sim.plant_context).copy()))
+            q = self.trace[-1][1][self._arm]
             error = np.abs(q - self.sim.player.desired(t)[:6])
             if error.max() > worst:
                 worst, worst_joint = float(error.max()), UR5E_JOINTS[int(np.argmax(error))]
