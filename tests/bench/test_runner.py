@@ -242,3 +242,22 @@ def test_bench_on_a_scenario_yaml_runs_the_same_scene_every_seed(tmp_path):
     assert [r["seed"] for r in document["rows"]] == [5, 6]
     assert len({r["scene_digest"] for r in document["rows"]}) == 1
     assert all(r["num_actions"] >= 1 for r in document["rows"])
+
+
+def test_a_row_from_before_configs_were_recorded_counts_as_the_default_config(tmp_path):
+    from tsad_drake.bench.runner import spec_scenario
+    from tsad_drake.run_config import apply_sets, default_run_config
+    from tsad_drake.scenario import scene_digest
+
+    default = default_run_config("gp3")
+    spec = EpisodeSpec(scenario="3", seed=0, planner="gp3", feasibility="oracle", config=default)
+    old_row = {**{k: getattr(spec, k) for k in SPEC_KEYS if k != "config_digest"}, "seed": 0,
+               "success": True, "num_actions": 2, "falls": 0, "planning_time_s": 0.1,
+               "marker": "old", "scene_digest": scene_digest(spec_scenario(spec))}
+    for name, config, reused in (("default", default, True),
+                                 ("changed", apply_sets(default, ["planner.iterations=50"]), False)):
+        out = tmp_path / f"{name}.json"
+        out.with_name(out.name + ".rows.jsonl").write_text(json.dumps(old_row) + "\n")
+        document = run_bench([EpisodeSpec("3", 0, "gp3", "oracle", config=config)], out,
+                             progress=False)
+        assert (document["rows"][0].get("marker") == "old") == reused, name

@@ -170,7 +170,9 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     """Rows of `path` that belong to this run: same settings and the same scene (the row's recorded
     scene digest; a row from before a generator change, or from before rows recorded the digest,
     is run again); a network row must record the shipped weights' digest (a row of other weights,
-    or from before rows recorded it, is run again). Lines that are not rows (cut off by an
+    or from before rows recorded it, is run again); a row without a config digest (from before
+    configs were recorded) counts as the defaults of its settings, so it serves a run with the
+    default config and no other. Lines that are not rows (cut off by an
     interruption, `null`, edited by hand) are skipped: those episodes run again."""
     if not path.exists():
         return {}
@@ -181,6 +183,8 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
     by_seed = {s.seed: s for s in specs}
     wanted = specs[0].key()
     defaults = {f.name: f.default for f in dc.fields(EpisodeSpec)}  # keys added since a row
+    # a row from before rows recorded their config ran with the defaults of its selectors
+    defaults["config_digest"] = dc.replace(specs[0], config=None).config_digest
     done, current = {}, ""  # current: the shipped weights' digest, read when a row has one
     for line in text.splitlines():
         try:
