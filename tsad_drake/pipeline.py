@@ -244,12 +244,13 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
     With `settings.motion`, the executed actions are verified again as one continuous motion from
     the ready pose; `motion` holds the segments, and `out_dir` gets `replay.html` (an offline
     Meshcat recording) and `scene.dmd.yaml` (Drake model directives of the scene); a `meshcat`
-    given (`tsad plan --meshcat`) records the replay there, live. On the physics world `out_dir`
-    also gets `physics_replay.html`: the contact simulation itself, as it ran.
+    given (`tsad plan --meshcat`) records the replay there, live. On the physics world
+    `replay.html` is the contact simulation as it ran (what happened), and the verified plan's
+    motion is `planned_replay.html` (what was planned).
     """
-    replay = (out_dir / "physics_replay.html"
-              if out_dir is not None and settings.world == "physics" else None)
-    row = run_settings(scenario, seed, settings, physics_replay=replay)
+    physics = out_dir is not None and settings.world == "physics"
+    row = run_settings(scenario, seed, settings,
+                       physics_replay=out_dir / "replay.html" if physics else None)
     config = settings.run_config()
     settings = physics_settings(settings)
     if settings.motion:
@@ -267,8 +268,8 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
         motions = verify_plan(scenario, actions, config.motion, X_WS)
         row["motion"] = motion_section(scenario, motions, SceneLayout(scenario, X_WS))
         if out_dir is not None:
-            write_replay_html(scenario, actions, motions, out_dir / "replay.html", meshcat,
-                              X_WS=X_WS)
+            planned = out_dir / ("planned_replay.html" if physics else "replay.html")
+            write_replay_html(scenario, actions, motions, planned, meshcat, X_WS=X_WS)
             write_scene_directives(scenario, out_dir, X_WS)
     row["scenario"] = scenario.name
     row["theta_star_deg"] = (None if row.get("theta_star_deg") is None

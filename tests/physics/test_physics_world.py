@@ -3,6 +3,7 @@
 Hand-built scenes (no generator); the simulations are deterministic (fixed step, no noise).
 """
 
+import json
 import math
 
 import numpy as np
@@ -214,3 +215,22 @@ def test_replay_of_the_simulation_ends_where_physics_left_the_scene(placed, tmp_
     assert page.stat().st_size > 10_000 and "front" in page.read_text()
     with pytest.raises(ValueError, match="positions"):  # a trace of another scene is refused
         write_trace_html(world._start, world.X_WS, [(0.0, final[:-1])], tmp_path / "bad.html")
+
+
+def test_plan_on_physics_replays_what_happened_beside_what_was_planned(tmp_path, capsys):
+    from cli_harness import invoke
+
+    from tsad_drake.scenario import save_scenario
+
+    save_scenario(_scene([_cylinder("front", 0.08, 0.0), _cylinder("target", 0.25, 0.0, 0.13)]),
+                  tmp_path / "scene.yaml")
+    code, out, err = invoke(capsys, ["plan", "--scenario", tmp_path / "scene.yaml", "--planner",
+                                     "tsad", "--feasibility", "geometric", "--world", "physics",
+                                     "--out", tmp_path / "o"])
+    assert code == 0, (out, err)
+    doc = json.loads((tmp_path / "o" / "plan.json").read_text())
+    assert doc["world"] == "physics" and doc["success"] and doc["actions"][0]["physics"]["moved"]
+    simulated = (tmp_path / "o" / "replay.html").read_text()
+    planned = (tmp_path / "o" / "planned_replay.html").read_text()
+    assert len(simulated) > 10_000 and len(planned) > 10_000 and simulated != planned
+    assert "contact simulation as it ran" in out

@@ -220,9 +220,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
         for i, m in enumerate(motion):
             if not m["verified"]:
                 detail(f"  action {i + 1}: {m['failure']}")
-        print(f"wrote {out / 'replay.html'} and {out / 'scene.dmd.yaml'}")
         if args.world == "physics":
-            print(f"wrote {out / 'physics_replay.html'} (the contact simulation as it ran)")
+            print(f"wrote {out / 'replay.html'} (the contact simulation as it ran), "
+                  f"{out / 'planned_replay.html'} (the verified plan) and {out / 'scene.dmd.yaml'}")
+        else:
+            print(f"wrote {out / 'replay.html'} and {out / 'scene.dmd.yaml'}")
     verdict = "target retrieved" if result["success"] else f"FAILED: {result['failure_reason']}"
     print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
           f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")
