@@ -124,7 +124,7 @@ bench-extra: setup
 	$(MAKE) report
 
 report: setup
-	$(TSAD) report $(BENCH_DIR)/*.json --out results/RESULTS.md
+	$(TSAD) report $(BENCH_DIR)/*.json results/physics/*.json --out results/RESULTS.md
 
 lint: setup
 	$(VENV)/bin/ruff check tsad_drake tests

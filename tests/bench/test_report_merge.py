@@ -5,6 +5,7 @@ import json
 
 from cli_harness import assert_clean, invoke
 
+from tsad_drake.bench.metrics import summarise as summarise_rows
 from tsad_drake.bench.report import group_by_scenario, merge_documents
 
 
@@ -94,3 +95,35 @@ def test_each_row_is_set_against_its_table_in_the_paper_with_its_interval():
     # 21/30 = 0.70 has the interval 0.52-0.83: the paper's 0.93 lies above it; 29/30 contains it
     assert "tsad-paper: success 0.70 (95% 0.52-0.83, 30 episodes)" in lines[2]
     assert lines[2].endswith("outside: above ours") and lines[3].endswith("inside: not told apart")
+
+
+def test_an_agreement_study_becomes_a_section_with_its_confusion_matrices(tmp_path, capsys):
+    from tsad_drake.bench.studies.physics_agreement import summarise
+
+    def action(rule_moved, physics_moved, physics_fallen=()):
+        return {"object": "a", "diverged": False,
+                "rule": {"moved": rule_moved, "fallen": [], "reason": ""},
+                "physics": {"moved": physics_moved, "fallen": list(physics_fallen),
+                            "disturbed": [], "sim_seconds": 2.0, "wall_seconds": 4.0},
+                "disagreements": [] if rule_moved == physics_moved else ["moved-rule-only"]}
+
+    episodes = [{"scenario": "1", "seed": 0, "actions": [action(True, True), action(True, False),
+                                                          action(True, True, ["b"])]}]
+    study = {"settings": {"scenarios": ["1"], "seeds": [0], "feasibility": "geometric",
+                          "aim": "true"}, "summary": summarise(episodes), "episodes": episodes}
+    assert study["summary"]["confusion"]["moved"] == {
+        "rule yes / physics yes": 2, "rule yes / physics no": 1,
+        "rule no / physics yes": 0, "rule no / physics no": 0}
+    (tmp_path / "agreement.json").write_text(json.dumps(study))
+    bench = _doc({"scenario": "1", "planner": "tsad", "feasibility": "geometric"}, [0])
+    bench["summary"] = summarise_rows(bench["rows"])
+    (tmp_path / "bench.json").write_text(json.dumps(bench))
+    code, _, err = invoke(capsys, ["report", tmp_path / "bench.json", tmp_path / "agreement.json",
+                                   "--out", tmp_path / "page.md"])
+    assert code == 0, err
+    page = (tmp_path / "page.md").read_text()
+    assert "## Physics against the 2-D rule" in page
+    assert "| rule yes | 2 | 1 |" in page and "| rule yes | 0 | 1 |" not in page
+    assert "| rule no | 1 | 2 |" in page  # falls: physics saw one the rule did not
+    result = invoke(capsys, ["report", tmp_path / "agreement.json", "--out", tmp_path / "p2.md"])
+    assert_clean(result, codes=(2,))  # a study alone has no table to report

@@ -89,18 +89,37 @@ def _bench_problem(document) -> str:
     return ""
 
 
+def _read_json(path: str | Path, what: str):
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        why = err.strerror if isinstance(err, OSError) and err.strerror else str(err).splitlines()[0]
+        raise InputFileError(f"cannot read {what} {path}: {why}") from None
+
+
 def load_bench_document(path: str | Path) -> dict:
     """A `tsad bench` result file, checked field by field; InputFileError when it is unreadable
     or not a bench result."""
-    try:
-        document = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        why = err.strerror if isinstance(err, OSError) and err.strerror else str(err).splitlines()[0]
-        raise InputFileError(f"cannot read bench result {path}: {why}") from None
+    document = _read_json(path, "bench result")
     problem = _bench_problem(document)
     if problem:
         raise InputFileError(f"{path} is not a `tsad bench` result: {problem}")
     return document
+
+
+def load_report_input(path: str | Path) -> tuple[str, dict]:
+    """("bench", document) for a `tsad bench` result, ("agreement", document) for the physics
+    agreement study's output (`bench/studies/physics_agreement.py`); InputFileError otherwise."""
+    from tsad_drake.bench.studies.physics_agreement import is_agreement_document
+
+    document = _read_json(path, "report input")
+    if is_agreement_document(document):
+        return "agreement", document
+    problem = _bench_problem(document)
+    if problem:
+        raise InputFileError(f"{path} is neither a `tsad bench` result ({problem}) nor a physics "
+                             "agreement study")
+    return "bench", document
 
 
 def report_outputs(out: Path) -> tuple[Path, Path, Path]:
@@ -416,8 +435,9 @@ def _order_line(scenario: str, rates: list[tuple[str, float]]) -> str:
     return f"- baselines in the paper's order (success {ours}): {verdict}"
 
 
-def write_report(documents: list[dict], out: Path) -> None:
-    """Write `out` (markdown), `out` with .json (digest) and .png (plot) beside it."""
+def write_report(documents: list[dict], out: Path, agreements: list[dict] = ()) -> None:
+    """Write `out` (markdown), `out` with .json (digest) and .png (plot) beside it; `agreements`
+    (physics agreement studies) become a section of their own."""
     groups = group_by_scenario(documents)
     machines = {json.dumps(d.get("machine", {}).get("platform")) for d in documents}
     lines = ["# Benchmark results", "",
@@ -438,6 +458,12 @@ def write_report(documents: list[dict], out: Path) -> None:
         lines += _paper_lines(scenario, columns)
         lines += _target_lines(scenario, columns) + _difficulty_lines(columns) + [""]
         digest[scenario] = {k: d["summary"] for k, d in columns.items()}
+    if agreements:
+        from tsad_drake.bench.studies.physics_agreement import agreement_markdown
+
+        lines += ["## Physics against the 2-D rule", ""]
+        for document in agreements:
+            lines += agreement_markdown(document)
     page, digest_path, plot = report_outputs(out)
     atomic_write(plot, lambda tmp: _plot(groups, tmp))
     lines += [f"![success rate and actions per planner]({plot.name})", ""]

@@ -144,7 +144,9 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                                    "paper's format, a JSON digest and a plot. Files of the same "
                                    "settings (a run split by seed ranges across machines) are "
                                    "merged by seed; the same seed with different results in two "
-                                   "files is refused.")
+                                   "files is refused. A physics agreement study "
+                                   "(bench/studies/physics_agreement.py) among the inputs becomes "
+                                   "a section with its confusion matrices.")
     p.add_argument("inputs", nargs="+", help="bench result JSON files")
     p.add_argument("--out", required=True, help="markdown file to write (plot and JSON beside it)")
 
@@ -319,7 +321,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 def cmd_report(args: argparse.Namespace) -> int:
     from tsad_drake.bench.report import (
-        load_bench_document,
+        load_report_input,
         merge_documents,
         report_outputs,
         write_report,
@@ -330,8 +332,12 @@ def cmd_report(args: argparse.Namespace) -> int:
     for path in report_outputs(out):
         if path.resolve() in inputs:
             raise UsageError(f"--out {out} would overwrite the input {path}: choose another name")
-    documents = merge_documents([(name, load_bench_document(name)) for name in args.inputs])
-    write_report(documents, out)
+    inputs = [(name, *load_report_input(name)) for name in args.inputs]
+    benches = [(name, doc) for name, kind, doc in inputs if kind == "bench"]
+    if not benches:
+        raise UsageError("report: no `tsad bench` result among the inputs")
+    documents = merge_documents(benches)
+    write_report(documents, out, [doc for _, kind, doc in inputs if kind == "agreement"])
     split = sum(len(d["sources"]) > 1 for d in documents)
     print(f"wrote {out}: {len(args.inputs)} files, {len(documents)} settings"
           + (f" ({split} merged from split runs)" if split else ""))
