@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-extra report lint clean
+.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic bench-extra report lint clean
 
 all: test
 
@@ -101,6 +101,19 @@ bench-paper: setup
 	for p in gp3 rots-star; do \
 	  $(TSAD) bench --scenario real --planner $$p $(REAL_SENSING) \
 	    --episodes 15 --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/real-$$p.json || exit 1; done
+
+# Realistic perception: the depth sensor model (`--sensor realistic`: distance-dependent noise,
+# dropout and flying pixels at edges, quantisation) and segmentation without the renderer's
+# labels (`cluster`), for TSAD in both variants and ROTS* on scenarios 1-3.
+bench-realistic: setup
+	mkdir -p $(BENCH_DIR)
+	for s in 1 2 3; do for v in full paper; do \
+	  $(TSAD) bench --scenario $$s --planner tsad --variant $$v --sensor realistic --segmentation cluster \
+	    --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/s$$s-tsad-$$v-realistic.json || exit 1; done; \
+	  $(TSAD) bench --scenario $$s --planner rots-star --sensor realistic --segmentation cluster \
+	    --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/s$$s-rots-star-realistic.json || exit 1; done
 
 # Extras: TSAD on the prehensile network and on the oracle model (scenarios 1-3, 30 episodes
 # each: the network issue's target is net within 0.03 of oracle), the stronger ROTS* variant

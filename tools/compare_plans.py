@@ -3,6 +3,7 @@ recordings field by field with wall-clock timings left out.
 
     python tools/compare_plans.py record DIR [--jobs 2]   # run every case, write DIR/<case>/plan.json
     python tools/compare_plans.py compare DIR_A DIR_B      # exit 0 when every plan.json agrees
+    (compare --allow-added: fields only in DIR_B, new in the newer tree, are listed, not counted)
     (both take --only PREFIX, e.g. --only s1-tsad-net: the network cases, best run alone, --jobs 1)
 
 The cases are the restructuring issue's: `tsad plan` for tsad, gp3, rots, rots-star (geometric model)
@@ -66,16 +67,21 @@ def _strip(value):
     return value
 
 
-def _diff(a, b, path: str = "") -> list[str]:
+def _diff(a, b, path: str = "", added: list[str] | None = None) -> list[str]:
+    """Differences of b from a; keys only in b (a newer recording's new fields) go to `added`
+    when a list is given, instead of counting as differences."""
     if isinstance(a, dict) and isinstance(b, dict):
-        out = [f"{path}.{k}: only in one" for k in sorted(set(a) ^ set(b))]
+        extra = sorted(set(b) - set(a)) if added is not None else []
+        if added is not None:
+            added += [f"{path}.{k}" for k in extra]
+        out = [f"{path}.{k}: only in one" for k in sorted((set(a) ^ set(b)) - set(extra))]
         for k in sorted(set(a) & set(b)):
-            out += _diff(a[k], b[k], f"{path}.{k}")
+            out += _diff(a[k], b[k], f"{path}.{k}", added)
         return out
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
             return [f"{path}: {len(a)} vs {len(b)} items"]
-        return [d for i, (x, y) in enumerate(zip(a, b)) for d in _diff(x, y, f"{path}[{i}]")]
+        return [d for i, (x, y) in enumerate(zip(a, b)) for d in _diff(x, y, f"{path}[{i}]", added)]
     return [] if a == b else [f"{path}: {a!r} vs {b!r}"]
 
 
@@ -84,8 +90,9 @@ def _time_capped(document: dict) -> bool:
     return any(r.get("stats", {}).get("time_capped") for r in document.get("rounds", []))
 
 
-def compare(a: Path, b: Path, only: str = "") -> int:
+def compare(a: Path, b: Path, only: str = "", allow_added: bool = False) -> int:
     bad = capped = 0
+    added: list[str] | None = [] if allow_added else None
     names = [k for k in cases() if k.startswith(only)]
     for name in names:
         pa, pb = a / name / "plan.json", b / name / "plan.json"
@@ -98,12 +105,14 @@ def compare(a: Path, b: Path, only: str = "") -> int:
             capped += 1
             print(f"{name}: a planning call hit the wall-clock cap; not comparable (run it alone)")
             continue
-        diffs = _diff(_strip(da), _strip(db))
+        diffs = _diff(_strip(da), _strip(db), added=added)
         if diffs:
             bad += 1
             print(f"{name}: {len(diffs)} differences, first: " + "; ".join(diffs[:3]))
     print(f"{len(names) - bad - capped} of {len(names) - capped} comparable plan.json documents "
           f"agree ({capped} time-capped)")
+    if added:
+        print(f"fields only in B (new, not compared): {', '.join(sorted(set(added)))}")
     return 1 if bad else 0
 
 
@@ -118,11 +127,13 @@ def main() -> int:
     p.add_argument("a", type=Path)
     p.add_argument("b", type=Path)
     p.add_argument("--only", default="", help="compare only the cases whose name starts with this")
+    p.add_argument("--allow-added", action="store_true",
+                   help="fields only in B (added by the newer tree) are listed, not differences")
     args = parser.parse_args()
     if args.command == "record":
         record(args.out, args.jobs, args.only)
         return 0
-    return compare(args.a, args.b, args.only)
+    return compare(args.a, args.b, args.only, args.allow_added)
 
 
 if __name__ == "__main__":
