@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tsad_drake.cli.common import add_threads_arg
+from tsad_drake.cli.common import Parser, add_scenario_args, add_threads_arg
 from tsad_drake.outputs import prepare_out_dir
 from tsad_drake.runtime import detail, show_progress
 
@@ -48,12 +48,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from tsad_drake.bench.report import write_report
     from tsad_drake.bench.runner import run_bench
     from tsad_drake.bench.sweep import load_sweep
-    from tsad_drake.cli.main import build_parser
-    from tsad_drake.cli.plan import bench_specs
+    from tsad_drake.cli.plan import add_plan_parsers, bench_specs
 
     sweep, points = load_sweep(args.grid)
     out = prepare_out_dir(args.out)
-    parser = build_parser()
+    parser = Parser(prog="tsad")  # the plan commands' parsers: each run is read as `tsad bench`
+    add_plan_parsers(parser.add_subparsers(dest="command", parser_class=Parser), add_scenario_args)
     runs = []  # every run checked before the first episode
     for point in points:
         for scenario in sweep.scenarios:
