@@ -36,9 +36,10 @@ setup: system-deps $(STAMP)
 
 # The main job: scenario 1 seed 0 rendered in the Drake station, perceived, planned by TSAD,
 # every pick-and-place turned into a verified UR5e motion, and a Meshcat replay written.
-# WORLD=physics executes every action as a Drake contact simulation instead of the 2-D rule.
+# Every action is executed as a Drake contact simulation of the station (WORLD=geometric: the
+# 2-D corridor rule instead, a few times faster), re-rendered after each sub-search.
 DEMO_FEASIBILITY ?= geometric
-WORLD ?= geometric
+WORLD ?= physics
 VARIANT ?= full
 demo: setup
 	$(VENV)/bin/tsad plan --scenario 1 --seed 0 --planner tsad --feasibility $(DEMO_FEASIBILITY) \
