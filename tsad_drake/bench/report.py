@@ -156,7 +156,7 @@ def _label(spec: dict) -> str:
 
 
 def _order(label: str) -> tuple:
-    base = label.split(" ")[0]
+    base = label.split(" ")[0].removesuffix("-paper")
     return (PLANNER_ORDER.index(base) if base in PLANNER_ORDER else 99, label)
 
 
@@ -435,6 +435,27 @@ def _order_line(scenario: str, rates: list[tuple[str, float]]) -> str:
     return f"- baselines in the paper's order (success {ours}): {verdict}"
 
 
+#: columns per printed table (a wider one does not fit a page)
+TABLE_COLUMNS = 7
+
+
+def _tables(scenario: str, columns: dict[str, dict]) -> list[str]:
+    """The scenario's columns as tables of at most TABLE_COLUMNS: first the runs in the paper's
+    settings (a counterpart in Tables I-IV), then the others (models, motion, physics, sensing)."""
+    ours = [k for k, d in columns.items() if paper_counterpart(scenario, d["spec"])]
+    groups = (("In the paper's settings", ours),
+              ("Other settings", [k for k in columns if k not in ours]))
+    lines = []
+    for title, labels in groups:
+        if not labels:
+            continue
+        lines += [f"{title}:", ""]
+        for k in range(0, len(labels), TABLE_COLUMNS):
+            chunk = labels[k:k + TABLE_COLUMNS]
+            lines += [paper_table({label: columns[label]["summary"] for label in chunk}), ""]
+    return lines
+
+
 def write_report(documents: list[dict], out: Path, agreements: list[dict] = ()) -> None:
     """Write `out` (markdown), `out` with .json (digest) and .png (plot) beside it; `agreements`
     (physics agreement studies) become a section of their own."""
@@ -448,8 +469,7 @@ def write_report(documents: list[dict], out: Path, agreements: list[dict] = ()) 
              f"{documents[0].get('machine', {}).get('host_cpus')} CPUs.", ""]
     digest = {}
     for scenario, columns in groups.items():
-        lines += [f"## Scenario {scenario}", "",
-                  paper_table({k: d["summary"] for k, d in columns.items()}), ""]
+        lines += [f"## Scenario {scenario}", "", *_tables(scenario, columns)]
         paper = PAPER_TABLE_I.get(scenario)
         if paper:
             lines += [f"Paper (Table I, scenario {scenario}): " + "; ".join(
