@@ -38,24 +38,18 @@ def write_replay_html(scenario: Scenario, actions: list[Action], motions: list[A
     del actions  # the motions carry their actions; kept for the lead's call signature
     meshcat = meshcat or Meshcat(MeshcatParams(host="localhost"))
     layout = SceneLayout(scenario, X_WS, meshcat=meshcat)
-    visualizer = layout.visualizer
-    visualizer.StartRecording(True)
-    t_end = 0.0
+    frames, t_end = [], 0.0
     layout.set_objects(scenario.objects)
     for motion in motions:
         if not motion.verified:
             layout.set_objects(motion.objects_after)
             t_end += 0.5
-            _frame(layout, t_end)
+            frames.append((t_end, layout.plant.GetPositions(layout.plant_context).copy()))
             continue
         for segment, q_full in layout.full_trajectories(motion):
-            for t, q in zip(segment.times, q_full, strict=True):
-                layout.plant.SetPositions(layout.plant_context, q)
-                _frame(layout, float(t))
+            frames += zip(segment.times, q_full, strict=True)
             t_end = float(segment.times[-1])
-    visualizer.StopRecording()
-    visualizer.PublishRecording()
-    return atomic_write_text(out_path, meshcat.StaticHtml())
+    return _record(layout, meshcat, frames, out_path)
 
 
 def write_trace_html(scenario: Scenario, X_WS: RigidTransform,
@@ -68,8 +62,14 @@ def write_trace_html(scenario: Scenario, X_WS: RigidTransform,
     if trace and len(trace[0][1]) != layout.plant.num_positions():
         raise ValueError(f"the trace has {len(trace[0][1])} positions, the scene's plant "
                          f"{layout.plant.num_positions()}")
+    return _record(layout, meshcat, trace, out_path)
+
+
+def _record(layout: SceneLayout, meshcat: Meshcat, frames, out_path: str | Path) -> Path:
+    """Publish `frames` ((time, full plant positions), in order) as a Meshcat recording and save
+    it as a self-contained page."""
     layout.visualizer.StartRecording(True)
-    for t, q in trace:
+    for t, q in frames:
         layout.plant.SetPositions(layout.plant_context, q)
         _frame(layout, float(t))
     layout.visualizer.StopRecording()
