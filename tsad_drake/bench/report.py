@@ -97,16 +97,6 @@ def _read_json(path: str | Path, what: str):
         raise InputFileError(f"cannot read {what} {path}: {why}") from None
 
 
-def load_bench_document(path: str | Path) -> dict:
-    """A `tsad bench` result file, checked field by field; InputFileError when it is unreadable
-    or not a bench result."""
-    document = _read_json(path, "bench result")
-    problem = _bench_problem(document)
-    if problem:
-        raise InputFileError(f"{path} is not a `tsad bench` result: {problem}")
-    return document
-
-
 def load_report_input(path: str | Path) -> tuple[str, dict]:
     """("bench", document) for a `tsad bench` result, ("agreement", document) for the physics
     agreement study's output (`bench/studies/physics_agreement.py`); InputFileError otherwise."""
@@ -155,8 +145,13 @@ def _label(spec: dict) -> str:
     return label
 
 
+def _planner_of(label: str) -> str:
+    """The planner a column label names (its first word, without the variant suffix)."""
+    return label.split(" ")[0].removesuffix("-paper")
+
+
 def _order(label: str) -> tuple:
-    base = label.split(" ")[0].removesuffix("-paper")
+    base = _planner_of(label)
     return (PLANNER_ORDER.index(base) if base in PLANNER_ORDER else 99, label)
 
 
@@ -506,7 +501,7 @@ def _colours(labels: list[str]) -> dict[str, tuple]:
     colours, seen = {}, {}
     others = iter(OTHER_COLOURS * (len(labels) // len(OTHER_COLOURS) + 1))
     for label in labels:
-        base = label.split(" ")[0].split("-paper")[0]
+        base = _planner_of(label)
         if base not in PLANNER_COLOURS:  # not a planner (a sweep's grid point): a colour each
             colours[label] = to_rgb(next(others))
             continue

@@ -37,7 +37,7 @@ from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.prehensile.checkpoint import weights_digest
 from tsad_drake.run_config import RunConfig, config_digest, run_config_record
-from tsad_drake.runtime import debug, pin_threads
+from tsad_drake.runtime import THREAD_ENV_VARS, VERBOSITY_ENV, debug, pin_threads, verbosity
 from tsad_drake.scenario import Scenario, load_scenario, scene_digest
 from tsad_drake.scenes import BUILTIN_SCENARIOS, generate_scenario
 
@@ -247,11 +247,6 @@ def _run_pool(todo: list[EpisodeSpec], workers: int, threads: int, record) -> No
     pool.shutdown()
 
 
-#: where bench episodes run: `process`, a pool of local processes; `ray`, Ray tasks (a local Ray
-#: started for the run, or the cluster at RAY_ADDRESS)
-BACKENDS = ("process", "ray")
-
-
 def _ray_episode(spec: EpisodeSpec, threads: int) -> dict:
     """A Ray task: one episode in a Ray worker process with pinned threads (only the spec and the
     JSON row cross processes; every Drake object is built and dropped inside the task)."""
@@ -263,8 +258,6 @@ def _run_ray(todo: list[EpisodeSpec], workers: int, threads: int, record) -> Non
     """Episodes as Ray tasks, at most `workers` at a time on a local Ray, one CPU each; with
     RAY_ADDRESS set, on that cluster (workers then caps only the tasks in flight)."""
     import ray
-
-    from tsad_drake.runtime import THREAD_ENV_VARS, VERBOSITY_ENV, verbosity
 
     env = {name: str(threads) for name in THREAD_ENV_VARS}
     env.update({VERBOSITY_ENV: str(verbosity()), "MESA_SHADER_CACHE_DISABLE": "true"})

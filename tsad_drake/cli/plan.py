@@ -33,6 +33,8 @@ WORLD_NAMES = ("geometric", "physics")
 MAX_ACTIONS = 100  #: largest --max-actions
 MAX_EPISODES = 10_000  #: largest --episodes
 MAX_WORKERS = 64  #: largest --workers
+#: where bench episodes run (`bench.runner.run_bench`)
+BACKEND_NAMES = ("process", "ray")
 
 
 def _add_selector_args(p: argparse.ArgumentParser) -> None:
@@ -61,6 +63,17 @@ def _add_selector_args(p: argparse.ArgumentParser) -> None:
                         "simulated state; implies --motion and --observer drake; about "
                         "5-10 s of wall time per action)")
     add_config_args(p)
+
+
+def add_parallel_args(p: argparse.ArgumentParser) -> None:
+    """--workers and --backend: where and how many episodes run at once (`bench`, `sweep`)."""
+    p.add_argument("--workers", type=int, default=1,
+                   help=f"episodes run in this many parallel processes (1 to {MAX_WORKERS}; "
+                        "default 1)")
+    p.add_argument("--backend", choices=BACKEND_NAMES, default="process",
+                   help="where episodes run: process (a local process pool, default) or ray (Ray "
+                        "tasks on a local Ray with --workers CPUs, or on the cluster at "
+                        "RAY_ADDRESS; needs `pip install 'tsad_drake[ray]'`)")
 
 
 def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
@@ -121,13 +134,7 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                    help="verify every action at the motion level before executing it (as "
                         "`tsad plan --motion`); rows and summary report the share of checked "
                         "actions that were motion-feasible")
-    p.add_argument("--workers", type=int, default=1,
-                   help=f"episodes run in this many parallel processes (1 to {MAX_WORKERS}; "
-                        "default 1)")
-    p.add_argument("--backend", choices=("process", "ray"), default="process",
-                   help="where episodes run: process (a local process pool, default) or ray (Ray "
-                        "tasks on a local Ray with --workers CPUs, or on the cluster at "
-                        "RAY_ADDRESS; needs `pip install 'tsad_drake[ray]'`)")
+    add_parallel_args(p)
     p.add_argument("--out", required=True, help="result JSON file")
 
     p = sub.add_parser("config", help="print the effective config as YAML (for --config)",
@@ -328,9 +335,9 @@ def cmd_report(args: argparse.Namespace) -> int:
     )
 
     out = prepare_out_file(args.out)
-    inputs = {Path(name).resolve() for name in args.inputs}
+    read = {Path(name).resolve() for name in args.inputs}
     for path in report_outputs(out):
-        if path.resolve() in inputs:
+        if path.resolve() in read:
             raise UsageError(f"--out {out} would overwrite the input {path}: choose another name")
     inputs = [(name, *load_report_input(name)) for name in args.inputs]
     benches = [(name, doc) for name, kind, doc in inputs if kind == "bench"]

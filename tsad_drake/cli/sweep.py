@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from tsad_drake.cli.common import Parser, add_scenario_args, add_threads_arg
+from tsad_drake.cli.plan import add_parallel_args, add_plan_parsers, bench_specs
 from tsad_drake.outputs import prepare_out_dir
 from tsad_drake.runtime import detail, show_progress
 
@@ -20,10 +21,7 @@ def add_sweep_parser(sub) -> None:
                            "format of GRID.yaml is in `tsad_drake/bench/sweep.py` and "
                            "docs/benchmark.md."))
     p.add_argument("grid", help="grid file (YAML)")
-    p.add_argument("--workers", type=int, default=1,
-                   help="episodes run in parallel (default 1)")
-    p.add_argument("--backend", choices=("process", "ray"), default="process",
-                   help="where episodes run, as `tsad bench --backend` (default process)")
+    add_parallel_args(p)
     add_threads_arg(p)
     p.add_argument("--out", required=True, help="output directory")
 
@@ -48,7 +46,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from tsad_drake.bench.report import write_report
     from tsad_drake.bench.runner import run_bench
     from tsad_drake.bench.sweep import load_sweep
-    from tsad_drake.cli.plan import add_plan_parsers, bench_specs
 
     sweep, points = load_sweep(args.grid)
     out = prepare_out_dir(args.out)
