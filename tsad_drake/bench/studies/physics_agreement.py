@@ -36,14 +36,17 @@ import time
 from pathlib import Path
 
 from tsad_drake.execution.world import ActionOutcome, GeometricWorld
-from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import Scenario
-from tsad_drake.scenes import generate_scenario
+
+# the episode machinery (pipeline, scene generator) is imported where episodes run: `tsad report`
+# reads study files through this module and needs only its summaries
 
 
 def planned_actions(scenario: Scenario, seed: int, feasibility: str) -> list[Action]:
     """The actions TSAD executes in a closed-loop geometric episode (true object names)."""
+    from tsad_drake.pipeline import EpisodeSettings, run_settings
+
     row = run_settings(scenario, seed, EpisodeSettings(planner="tsad", feasibility=feasibility,
                                                        motion=True))
     return [Action(a["true_object"], math.radians(a["theta_pick_deg"]), a["place_xy"][0],
@@ -175,6 +178,8 @@ def is_agreement_document(document) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from tsad_drake.scenes import generate_scenario
+
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenarios", nargs="+", default=["1", "2", "3"])
     p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
