@@ -238,8 +238,8 @@ def free_cells(scenario: Scenario, probe_radius: float) -> int:
                                           scenario.min_gap).reshape(c, n)
     fits = inside & ~touch.any(axis=1)
     corridors = approach_corridors(np.repeat(cells[fits], a, axis=0),
-                                   np.tile(thetas, int(fits.sum())), g.swept_half_width,
-                                   g.finger_reach)
+                                   np.tile(thetas, int(fits.sum())), g.corridor_half_width,
+                                   g.corridor_reach)
     if len(corridors) == 0:
         return 0
     hit = convex_polygons_overlap_pairs(np.repeat(corridors, n, axis=0),
@@ -254,7 +254,7 @@ def target_blockers(scenario: Scenario, theta: float) -> list[int]:
     """Indices of objects whose footprint meets the gripper corridor to the target at theta."""
     target = scenario.object(scenario.target)
     g = scenario.gripper
-    corridor = approach_corridor(target.x, target.y, theta, g.swept_half_width, g.finger_reach)
+    corridor = approach_corridor(target.x, target.y, theta, g.corridor_half_width, g.corridor_reach)
     return [i for i, o in enumerate(scenario.objects)
             if o.name != target.name and convex_polygons_overlap(corridor, o.footprint())]
 
@@ -265,7 +265,7 @@ def _fewest_target_blockers(scenario: Scenario) -> int:
     target = scenario.object(scenario.target)
     others = [o.footprint() for o in scenario.objects if o.name != target.name]
     corridors = approach_corridors(np.tile([target.x, target.y], (len(thetas), 1)), thetas,
-                                   g.swept_half_width, g.finger_reach)
+                                   g.corridor_half_width, g.corridor_reach)
     hits = convex_polygons_overlap_pairs(np.repeat(corridors, len(others), axis=0),
                                          np.tile(pad_polygons(others), (len(thetas), 1, 1)))
     return int(hits.reshape(len(thetas), len(others)).sum(axis=1).min())
@@ -281,8 +281,8 @@ def removal_solvable(scenario: Scenario) -> bool:
     n, a = len(objects), len(thetas)
     polys = pad_polygons([o.footprint() for o in objects])
     centres = np.repeat([[o.x, o.y] for o in objects], a, axis=0)
-    corridors = approach_corridors(centres, np.tile(thetas, n), g.swept_half_width,
-                                   g.finger_reach)  # (n*a, 4, 2)
+    corridors = approach_corridors(centres, np.tile(thetas, n), g.corridor_half_width,
+                                   g.corridor_reach)  # (n*a, 4, 2)
     pairs_c = np.repeat(corridors, n, axis=0)
     pairs_o = np.tile(polys, (n * a, 1, 1))
     hits = convex_polygons_overlap_pairs(pairs_c, pairs_o).reshape(n, a, n)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 import statistics
 
+from tsad_drake.motion.causes import cause_label, failure_cause
+
 #: z of a two-sided 95% interval
 Z95 = 1.959963984540054
 
@@ -61,6 +63,14 @@ def summarise(rows: list[dict]) -> dict:
             reason = str(r.get("failure_reason") or "unknown").split(":")[0]
             reasons[reason] = reasons.get(reason, 0) + 1
     summary["failure_reasons"] = reasons
+    causes: dict[str, int] = {}
+    for r in rows:
+        for check in r.get("motion_checks", []):
+            if not check["verified"]:
+                label = cause_label(check.get("cause") or failure_cause(check["failure"]))
+                causes[label] = causes.get(label, 0) + 1
+    if causes:
+        summary["motion_rejections"] = dict(sorted(causes.items(), key=lambda kv: -kv[1]))
     summary.update(_physics_summary(rows))
     return summary
 
@@ -129,6 +139,8 @@ def paper_table(columns: dict[str, dict]) -> str:
     if any("mean_motion_feasible_share" in s for s in columns.values()):
         row("Motion-feasible share of checked actions",
             lambda s: _fmt(s.get("mean_motion_feasible_share")))
+        row("Motion rejections by cause", lambda s: ", ".join(
+            f"{n} {label}" for label, n in (s.get("motion_rejections") or {}).items()) or "none")
     if any("network_queries_per_s" in s for s in columns.values()):
         row("Network queries per episode", lambda s: _fmt(s.get("network_evaluations_mean"), 0))
         row("Network queries per second", lambda s: _fmt(s.get("network_queries_per_s"), 0))

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from tsad_drake.execution.world import ActionOutcome, World
+from tsad_drake.motion.causes import failure_cause
 from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.interface import FeasibilityModel
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
@@ -125,8 +126,10 @@ def _execute(world: World, state: PlanningState, actions: list[Action],
         true_action = dc.replace(action, object=name)
         if check is not None:
             ok, why = check(world.scenario(), true_action)
-            result.motion_checks.append({**action_record(action, name), "verified": ok,
-                                         "failure": why})
+            record = {**action_record(action, name), "verified": ok, "failure": why}
+            if not ok:
+                record["cause"] = failure_cause(why)
+            result.motion_checks.append(record)
             if not ok and withhold:
                 return n, action
         outcome = world.execute(true_action)

@@ -69,6 +69,11 @@ class MotionConfig:
     #: optimise each segment without the distance constraints first; add them only when the dense
     #: check finds a collision (False: always optimise with them)
     lazy_collision: bool = True
+    #: the moves inside the shelf (approach, lift, retreat, placing, withdrawing) follow the
+    #: straight approach line the planners' corridor assumes (`motion/cartesian.py`); a move the
+    #: line cannot give falls back to trajectory optimisation. False: optimise every move
+    straight_lines: bool = True
+    line_step: float = 0.005  #: m, tcp waypoint spacing along a straight line
     snopt_major_iterations: int = 100  #: SNOPT iteration limit of one segment's optimisation
     min_duration: float = 0.2  #: s, shortest segment
     max_duration: float = 8.0  #: s, longest segment

@@ -21,6 +21,7 @@ import time
 import numpy as np
 from pydrake.math import RigidTransform
 
+from tsad_drake.motion.cartesian import LineError, line_path, time_path
 from tsad_drake.motion.keyframes import (
     R_SG,
     KeyframeError,
@@ -30,6 +31,7 @@ from tsad_drake.motion.keyframes import (
 )
 from tsad_drake.motion.scene import Held, MotionConfig, MotionModel
 from tsad_drake.motion.trajectory import (
+    ARM_VELOCITY_LIMIT,
     SegmentError,
     linear_segment,
     optimise_segment,
@@ -173,6 +175,7 @@ class _ActionPlanner:
         self.keyframes: dict[str, np.ndarray] = {}
         self.segments: list[Segment] = []
         self.X_TO: RigidTransform | None = None
+        self.line_segments = 0  #: moves that followed the straight line (the rest optimised)
         self.after = [moved_object(o, action) if o.name == action.object else o for o in objects]
 
     def keyframe(self, model: MotionModel, name: str, X_ST: RigidTransform, previous: np.ndarray,
@@ -184,9 +187,25 @@ class _ActionPlanner:
         self.keyframes[name] = q
         return q
 
-    def move(self, model: MotionModel, start: str, end: str, q0: np.ndarray, q1: np.ndarray) -> None:
+    def move(self, model: MotionModel, start: str, end: str, q0: np.ndarray, q1: np.ndarray,
+             X_ST: RigidTransform | None = None) -> np.ndarray:
+        """Append the segment from q0 to keyframe `end`; returns the configuration it ends in.
+
+        With `X_ST` (a move inside the shelf) and `straight_lines`, the tcp follows the straight
+        line to that pose (`cartesian.py`) and the line's end becomes the keyframe; a line that
+        cannot be followed or collides falls back to the optimised segment to q1 (the IK keyframe).
+        """
         t0 = self.segments[-1].times[-1] if self.segments else 0.0
-        self.segments.append(_arm_segment(model, f"{start}->{end}", q0, q1, t0))
+        name = f"{start}->{end}"
+        if X_ST is not None and self.config.straight_lines:
+            segment = _line_segment(model, name, q0, self.X_WS @ X_ST, t0)
+            if segment is not None:
+                self.segments.append(segment)
+                self.keyframes[end] = segment.q[-1].copy()
+                self.line_segments += 1
+                return segment.q[-1].copy()
+        self.segments.append(_arm_segment(model, name, q0, q1, t0))
+        return q1
 
     def run(self, q_start: np.ndarray) -> None:
         config, action, obj = self.config, self.action, self.obj
@@ -200,6 +219,13 @@ class _ActionPlanner:
         opening = min(FINGER_OPEN, closed + config.preshape_gap)  # pre-shaped fingers
         q_pre = self.keyframe(pick, "pre_grasp", targets["pre_grasp"], q_start, opening)
         q_grasp = self.keyframe(pick, "grasp", targets["grasp"], q_pre, opening)
+        q_shaped = q_start.copy()  # the fingers pre-shape before the arm moves in
+        q_shaped[pick.finger_indices] = opening
+        if not np.allclose(q_shaped, q_start):
+            self.segments.append(_gripper_segment(pick, "preshape", q_start, q_shaped, 0.0, None))
+        self.move(pick, "start", "pre_grasp", q_shaped, q_pre)
+        q_grasp = self.move(pick, "pre_grasp", "grasp", q_pre, q_grasp, targets["grasp"])
+
         X_WO = self.X_WS @ X_SO(obj) @ RigidTransform([0.0, 0.0, config.lift_gap])
         self.X_TO = pick.X_WT(q_grasp).inverse() @ X_WO
         carry = MotionModel(self.shelf, self.X_WS, self.objects, config, Held(obj, self.X_TO))
@@ -209,24 +235,37 @@ class _ActionPlanner:
         for name in ("lift", "retreat", "pre_place", "place_above", "place"):
             q[name] = previous = self.keyframe(carry, name, targets[name], previous, closed)
         place = MotionModel(self.shelf, self.X_WS, self.after, config, near=obj.name)
-        q_released = q["place"].copy()
-        q_released[place.finger_indices] = opening
-        q_post = self.keyframe(place, "post_place", targets["post_place"], q_released, opening)
 
-        q_shaped = q_start.copy()  # the fingers pre-shape before the arm moves in
-        q_shaped[pick.finger_indices] = opening
-        if not np.allclose(q_shaped, q_start):
-            self.segments.append(_gripper_segment(pick, "preshape", q_start, q_shaped, 0.0, None))
-        self.move(pick, "start", "pre_grasp", q_shaped, q_pre)
-        self.move(pick, "pre_grasp", "grasp", q_pre, q_grasp)
         t0 = self.segments[-1].times[-1]
         self.segments.append(_gripper_segment(carry, "close", q_grasp, q["grasp"], t0, obj.name))
         names = ("grasp", "lift", "retreat", "pre_place", "place_above", "place")
+        current = q["grasp"]
         for a, b in zip(names[:-1], names[1:], strict=True):
-            self.move(carry, a, b, q[a], q[b])
+            line = None if (a, b) == ("retreat", "pre_place") else targets[b]
+            current = self.move(carry, a, b, current, q[b], line)
+        q_released = current.copy()
+        q_released[place.finger_indices] = opening
+        q_post = self.keyframe(place, "post_place", targets["post_place"], q_released, opening)
         t0 = self.segments[-1].times[-1]
-        self.segments.append(_gripper_segment(carry, "open", q["place"], q_released, t0, obj.name))
-        self.move(place, "place", "post_place", q_released, q_post)
+        self.segments.append(_gripper_segment(carry, "open", current, q_released, t0, obj.name))
+        self.move(place, "place", "post_place", q_released, q_post, targets["post_place"])
+
+
+def _line_segment(model: MotionModel, name: str, q0: np.ndarray, X_W1: RigidTransform,
+                  t0: float) -> Segment | None:
+    """The straight-line move from q0 to the tcp pose X_W1, densely checked; None when the line
+    cannot be followed or collides (the caller optimises instead)."""
+    config = model.config
+    try:
+        path = line_path(model, q0, X_W1, config.line_step)
+    except LineError:
+        return None
+    times, qs = time_path(path, model.arm_indices, ARM_VELOCITY_LIMIT * config.velocity_scale,
+                          config.min_duration, config.sample_step)
+    if _first_collision(model, times, qs) is not None:
+        return None
+    held = None if model.held is None else model.held.obj.name
+    return Segment(name, times + t0, qs, held)
 
 
 def plan_action(scenario: Scenario, objects: list[ObjectConfig], action: Action,
@@ -333,3 +372,4 @@ def is_pick_failure(failure: str) -> bool:
     if words[0] == "keyframe":
         return name in PICK_KEYFRAMES
     return name in ("preshape", "close") or name.split("->")[-1] in PICK_KEYFRAMES
+

@@ -40,8 +40,7 @@ def make_workspace(scenario: Scenario,
         cell_centres=grid_cell_centres(shelf.depth, shelf.width, grid.cells_x, grid.cells_y,
                                        grid.margin),
         stroke=gripper.stroke, grasp_margin=gripper.grasp_margin,
-        swept_half_width=gripper.swept_half_width + gripper.planning_clearance,
-        finger_reach=gripper.finger_reach + gripper.planning_clearance,
+        swept_half_width=gripper.corridor_half_width, finger_reach=gripper.corridor_reach,
         min_empty_distance=min_empty_distance)
 
 
