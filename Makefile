@@ -163,7 +163,7 @@ bench-motion: setup
 	$(MAKE) report
 
 report: setup
-	$(TSAD) report $(BENCH_DIR)/*.json results/physics/*.json --out results/RESULTS.md
+	$(TSAD) report $(wildcard $(BENCH_DIR)/*.json results/physics/*.json) --out results/RESULTS.md
 
 lint: setup
 	$(VENV)/bin/ruff check tsad_drake tests

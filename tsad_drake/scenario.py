@@ -48,7 +48,7 @@ class GridConfig:
     margin: float = 0.035  #: m, keep-out band along the walls excluded from the grid
 
 
-#: m, the planners' clearance that matches the motion level's 1 mm (see GripperConfig)
+#: m, the planners' clearance: the motion level's 1 mm plus 0.5 mm (see GripperConfig)
 SHARED_CLEARANCE = 0.0015
 
 
@@ -61,12 +61,11 @@ class GripperConfig:
     swept_half_width: float = 0.055  #: m, half the width of the open fingers, swept while approaching
     finger_reach: float = 0.015  #: m, how far past the grasp centre the fingertips' sweep extends
     #: m, the clearance every planning decision keeps: the planners' swept corridor is this much
-    #: wider on each side and longer past the fingertips, and the scene generator leaves room for
-    #: it. `SHARED_CLEARANCE` is the value that matches the motion level (its 1 mm
-    #: `MotionConfig.clearance` plus 0.5 mm of tolerance, `tests/motion/test_clearance.py`); the
-    #: default stays 0 until the bench rows are re-run on the scenes it generates (docs/
-    #: known-issues.md). The worlds judge contact without it.
-    planning_clearance: float = 0.0
+    #: wider on each side and longer past the fingertips, and the scene generator (its blockers,
+    #: free cells and solvability check) leaves room for it. SHARED_CLEARANCE matches the motion
+    #: level: its 1 mm `MotionConfig.clearance` plus 0.5 mm of tolerance
+    #: (`tests/motion/test_clearance.py`). The worlds judge contact without it.
+    planning_clearance: float = SHARED_CLEARANCE
 
     @property
     def corridor_half_width(self) -> float:
