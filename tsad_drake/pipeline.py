@@ -155,13 +155,11 @@ WORLD_NAMES = ("geometric", "physics")
 
 def physics_settings(settings: EpisodeSettings) -> EpisodeSettings:
     """The settings a physics episode runs with: motion level on, Drake observer (ValueError for
-    an unknown world, or a sensor the physics world cannot observe with)."""
+    an unknown world)."""
     if settings.world not in WORLD_NAMES:
         raise ValueError(f"unknown world {settings.world!r}: use one of {', '.join(WORLD_NAMES)}")
     if settings.world != "physics":
         return settings
-    if settings.sensor != "ideal" or not settings.sensor_config().ideal:
-        raise ValueError("the physics world observes with the ideal sensor only (for now)")
     return dc.replace(settings, motion=True, observer="drake")
 
 
@@ -173,7 +171,7 @@ def make_world(settings: EpisodeSettings, scenario: Scenario, seed: int = 0) -> 
         from tsad_drake.physics.world import PhysicsWorld
 
         return PhysicsWorld(scenario, config.world, settings.segmentation, config.motion,
-                            config.station, config.perception)
+                            config.station, config.perception, config.sensor, seed)
     return GeometricWorld(scenario, make_observer(settings.observer, scenario,
                                                   settings.segmentation, config.sensor, seed,
                                                   config.perception, config.station))

@@ -43,6 +43,7 @@ from tsad_drake.motion.verify import (
     transfer_segment,
 )
 from tsad_drake.perception.observe import PerceptionConfig
+from tsad_drake.perception.sensor import SensorConfig
 from tsad_drake.perception.types import PerceivedObject, PerceivedScene
 from tsad_drake.physics.command import make_command
 from tsad_drake.physics.config import PhysicsConfig
@@ -128,6 +129,8 @@ class PhysicsWorld(World):
         motion: the motion planner's settings.
         station: the station layout (robot base, shelf placement, camera).
         perception: the perception pipeline's settings (default: the ideal sensor's).
+        sensor: the depth sensor model applied to every render (default: ideal).
+        noise_seed: seed of the sensor's random effects (each observation draws afresh).
     """
 
     measures_physics = True
@@ -135,9 +138,13 @@ class PhysicsWorld(World):
     def __init__(self, scenario: Scenario, config: PhysicsConfig | None = None,
                  segmentation: str = "label", motion: MotionConfig | None = None,
                  station: StationConfig | None = None,
-                 perception: PerceptionConfig | None = None) -> None:
+                 perception: PerceptionConfig | None = None,
+                 sensor: SensorConfig | None = None, noise_seed: int = 0) -> None:
         super().__init__()
         self.perception_config = perception or PerceptionConfig()
+        self.sensor = sensor or SensorConfig()
+        self.noise_seed = noise_seed
+        self._observations = 0
         self.config = config or PhysicsConfig()
         self.motion_config = motion or MotionConfig()
         self.station_config = station or StationConfig()
@@ -192,8 +199,10 @@ class PhysicsWorld(World):
         for body in station.object_bodies:
             X_WB = plant.EvalBodyPoseInWorld(context, self.sim.models.objects[body.name()])
             station.plant.SetFreeBodyPose(station.plant_context, body, X_WB)
-        scene = observe(station, segmentation=self.segmentation,
-                        config=self.perception_config).scene
+        scene = observe(station, segmentation=self.segmentation, sensor=self.sensor,
+                        config=self.perception_config,
+                        noise_seed=[self.noise_seed, self._observations]).scene
+        self._observations += 1
         self.believe(scene)
         return scene
 
