@@ -43,11 +43,27 @@ def test_plan_with_realistic_sensing_and_cluster_segmentation(tmp_path, capsys):
     assert doc["success"], doc["failure_reason"]
 
 
-def test_physics_with_a_noisy_sensor_is_refused_before_work(tmp_path, capsys):
-    code, _, stderr = invoke(capsys, ["plan", "--scenario", "1", "--planner", "tsad",
+def test_physics_world_plans_through_the_realistic_sensor(tmp_path, capsys):
+    """`--world physics --sensor realistic`: the physics world's renders go through the sensor
+    model and cluster segmentation; a one-blocker scene is still retrieved."""
+    from tsad_drake.scenario import ObjectConfig, Scenario
+
+    scene = Scenario(name="blocked", objects=[
+        ObjectConfig(name="target", shape="cylinder", size=[0.03, 0.13], x=0.24, y=0.0),
+        ObjectConfig(name="front", shape="cylinder", size=[0.03, 0.17], x=0.10, y=0.0),
+        ObjectConfig(name="side", kind="square_pillar", shape="box", size=[0.045, 0.045, 0.15],
+                     x=0.22, y=0.15)], target="target")
+    path = tmp_path / "scene.yaml"
+    save_scenario(scene, path)
+    code, _, stderr = invoke(capsys, ["plan", "--scenario", str(path), "--seed", "0",
+                                      "--planner", "tsad", "--feasibility", "geometric",
                                       "--world", "physics", "--sensor", "realistic",
-                                      "--out", str(tmp_path / "out")])
-    assert code == 2 and "--sensor" in stderr and len(stderr.strip().splitlines()) == 1
+                                      "--segmentation", "cluster", "--out", str(tmp_path / "out")])
+    doc = json.loads((tmp_path / "out" / "plan.json").read_text())
+    assert code == 0, stderr
+    assert doc["world"] == "physics" and doc["sensor"] == "realistic"
+    assert doc["settings"]["segmentation"] == "cluster" and doc["success"]
+    assert all("physics" in a for a in doc["actions"])
 
 
 def test_plan_with_meshcat_serves_the_scene_and_its_motion(tmp_path, capsys, monkeypatch):
