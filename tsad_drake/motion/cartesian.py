@@ -6,11 +6,13 @@ is what pushed fingers into neighbours and walls that the corridor had cleared. 
 follows the line itself: waypoints every `line_step` metres, each reached from the previous
 configuration by Newton steps on the tcp's spatial-velocity Jacobian (six arm joints, six pose
 components, fingers held), so consecutive configurations are close and the joint-space edge
-between them stays within micrometres of the line. The path is timed rest to rest with a
-minimum-jerk profile under the joints' velocity limits.
+between them stays within micrometres of the line. Near the UR5e's wrist singularity the steps
+are damped and the tool's pitch may lag (SINGULAR_ROTATION_TOLERANCE); a step that would make a
+joint jump is halved. The path is timed rest to rest with a minimum-jerk profile under the
+joints' velocity limits.
 
-Failures (a joint limit, a near-singular Jacobian, a jump between waypoints, a pose not reached)
-raise `LineError`; the caller falls back to trajectory optimisation.
+Failures (a joint limit, a pose not reached or a jump left after MAX_HALVINGS halvings) raise
+`LineError`; the caller falls back to trajectory optimisation.
 """
 
 from __future__ import annotations

@@ -124,7 +124,7 @@ def _arm_segment(model: MotionModel, name: str, q0: np.ndarray, q1: np.ndarray, 
     it is optimised with them, and the dense check decides again.
     """
     config = model.config
-    held = None if model.held is None else model.held.obj.name
+    held = _held_name(model)
     hit = "not tried"
     if config.lazy_collision:
         try:
@@ -144,6 +144,11 @@ def _arm_segment(model: MotionModel, name: str, q0: np.ndarray, q1: np.ndarray, 
     if failure is not None:
         raise MotionFailure(failure)
     return segment
+
+
+def _held_name(model: MotionModel) -> str | None:
+    """Name of the object the phase model carries, if any (recorded on its segments)."""
+    return None if model.held is None else model.held.obj.name
 
 
 def _sampled(model: MotionModel, name: str, traj, t0: float, held: str | None) -> Segment:
@@ -175,7 +180,6 @@ class _ActionPlanner:
         self.keyframes: dict[str, np.ndarray] = {}
         self.segments: list[Segment] = []
         self.X_TO: RigidTransform | None = None
-        self.line_segments = 0  #: moves that followed the straight line (the rest optimised)
         self.after = [moved_object(o, action) if o.name == action.object else o for o in objects]
 
     def keyframe(self, model: MotionModel, name: str, X_ST: RigidTransform, previous: np.ndarray,
@@ -202,7 +206,6 @@ class _ActionPlanner:
             if segment is not None:
                 self.segments.append(segment)
                 self.keyframes[end] = segment.q[-1].copy()
-                self.line_segments += 1
                 return segment.q[-1].copy()
         self.segments.append(_arm_segment(model, name, q0, q1, t0))
         return q1
@@ -264,7 +267,7 @@ def _line_segment(model: MotionModel, name: str, q0: np.ndarray, X_W1: RigidTran
                           config.min_duration, config.sample_step)
     if _first_collision(model, times, qs) is not None:
         return None
-    held = None if model.held is None else model.held.obj.name
+    held = _held_name(model)
     return Segment(name, times + t0, qs, held)
 
 
@@ -372,4 +375,3 @@ def is_pick_failure(failure: str) -> bool:
     if words[0] == "keyframe":
         return name in PICK_KEYFRAMES
     return name in ("preshape", "close") or name.split("->")[-1] in PICK_KEYFRAMES
-
