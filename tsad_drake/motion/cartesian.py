@@ -65,22 +65,27 @@ def _reach(model: MotionModel, q: np.ndarray, X_target: RigidTransform, exact: b
     """
     plant, context, arm = model.plant, model.context, model.arm_indices
     weights = np.array([ROTATION_WEIGHT] * 3 + [1.0] * 3)
-    for _ in range(NEWTON_STEPS + 1):  # usually 1-3
+    damping = rotation_tolerance = None
+    for _ in range(NEWTON_STEPS + 1):  # usually 1-2 from the predicted start
         plant.SetPositions(context, q)
         error = _pose_error(model.tcp.CalcPoseInWorld(context), X_target)
         J = weights[:, None] * plant.CalcJacobianSpatialVelocity(
             context, JacobianWrtVariable.kQDot, model.tcp, np.zeros(3), plant.world_frame(),
             plant.world_frame())[:, arm]
-        sigma = np.linalg.svd(J, compute_uv=False)[-1]
-        singular = sigma < SINGULAR_THRESHOLD
-        rotation_tolerance = (SINGULAR_ROTATION_TOLERANCE if singular and not exact
-                              else ROTATION_TOLERANCE)
+        if damping is None:  # the waypoint's distance to the singularity, taken once
+            sigma = np.linalg.svd(J, compute_uv=False)[-1]
+            singular = sigma < SINGULAR_THRESHOLD
+            rotation_tolerance = (SINGULAR_ROTATION_TOLERANCE if singular and not exact
+                                  else ROTATION_TOLERANCE)
+            damping = MAX_DAMPING * (1.0 - (sigma / SINGULAR_THRESHOLD) ** 2) if singular else 0.0
         if (np.linalg.norm(error[3:]) < POSITION_TOLERANCE
                 and np.linalg.norm(error[:3]) < rotation_tolerance):
             return True
-        damping = MAX_DAMPING * (1.0 - (sigma / SINGULAR_THRESHOLD) ** 2) if singular else 0.0
         e = weights * error
-        q[arm] += J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(6), e)
+        if damping > 0.0:
+            q[arm] += J.T @ np.linalg.solve(J @ J.T + damping ** 2 * np.eye(6), e)
+        else:
+            q[arm] += np.linalg.solve(J, e)
     return False
 
 
@@ -103,10 +108,12 @@ def line_path(model: MotionModel, q0: np.ndarray, X_W1: RigidTransform,
     q = np.asarray(q0, dtype=float).copy()
     path = [q.copy()]
     s, ds = 0.0, base
+    rate = np.zeros(len(arm))  # dq/ds of the last accepted step: predicts the next waypoint
     while s < 1.0 - 1e-12:
         s_next = min(1.0, s + ds)
         X_target = RigidTransform(Q0.slerp(s_next, Q1), p0 + s_next * (p1 - p0))
         trial = q.copy()
+        trial[arm] += rate * (s_next - s)
         reached = _reach(model, trial, X_target, exact=s_next == 1.0)
         jump = float(np.max(np.abs(trial[arm] - q[arm])))
         if not reached or jump > MAX_JOINT_STEP:
@@ -117,6 +124,7 @@ def line_path(model: MotionModel, q0: np.ndarray, X_W1: RigidTransform,
             continue
         if np.any(trial[arm] < lower) or np.any(trial[arm] > upper):
             raise LineError(f"joint limit at {s_next:.0%} of the line")
+        rate = (trial[arm] - q[arm]) / (s_next - s)
         q, s = trial, s_next
         path.append(q.copy())
         ds = min(base, 2 * ds)

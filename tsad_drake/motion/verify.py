@@ -88,6 +88,9 @@ def moved_object(obj: ObjectConfig, action: Action) -> ObjectConfig:
 def _first_collision(model: MotionModel, times: np.ndarray, qs: np.ndarray) -> str | None:
     """None when every sample and every edge between samples is collision-free, else what hit."""
     checker = model.checker
+    pairs = [(qs[i], qs[i + 1]) for i in range(len(qs) - 1)]
+    if pairs and all(checker.CheckEdgesCollisionFree(pairs)):  # edges include their ends
+        return None
     free = checker.CheckConfigsCollisionFree(list(qs))
     bad = [i for i, ok in enumerate(free) if not ok]
     limit = bad[0] if bad else len(qs) - 1
@@ -191,22 +194,24 @@ class _ActionPlanner:
         self.keyframes[name] = q
         return q
 
-    def move(self, model: MotionModel, start: str, end: str, q0: np.ndarray, q1: np.ndarray,
-             X_ST: RigidTransform | None = None) -> np.ndarray:
-        """Append the segment from q0 to keyframe `end`; returns the configuration it ends in.
+    def move(self, model: MotionModel, start: str, end: str, q0: np.ndarray,
+             X_ST: RigidTransform, finger: float, line: bool = True) -> np.ndarray:
+        """Append the segment from q0 to keyframe `end` (tcp at X_ST); returns where it ends.
 
-        With `X_ST` (a move inside the shelf) and `straight_lines`, the tcp follows the straight
-        line to that pose (`cartesian.py`) and the line's end becomes the keyframe; a line that
-        cannot be followed or collides falls back to the optimised segment to q1 (the IK keyframe).
+        With `line` (a move inside the shelf) and `straight_lines`, the tcp follows the straight
+        line to X_ST (`cartesian.py`) and the line's end becomes the keyframe; only when the line
+        cannot be followed or collides is the keyframe solved by IK from q0 and the segment
+        optimised to it (so a line move costs no IK).
         """
         t0 = self.segments[-1].times[-1] if self.segments else 0.0
         name = f"{start}->{end}"
-        if X_ST is not None and self.config.straight_lines:
+        if line and self.config.straight_lines:
             segment = _line_segment(model, name, q0, self.X_WS @ X_ST, t0)
             if segment is not None:
                 self.segments.append(segment)
                 self.keyframes[end] = segment.q[-1].copy()
                 return segment.q[-1].copy()
+        q1 = self.keyframe(model, end, X_ST, q0, finger)
         self.segments.append(_arm_segment(model, name, q0, q1, t0))
         return q1
 
@@ -220,38 +225,37 @@ class _ActionPlanner:
                                 f"gripper at theta_pick: wider than its stroke")
         pick = MotionModel(self.shelf, self.X_WS, self.objects, config, near=obj.name)
         opening = min(FINGER_OPEN, closed + config.preshape_gap)  # pre-shaped fingers
-        q_pre = self.keyframe(pick, "pre_grasp", targets["pre_grasp"], q_start, opening)
-        q_grasp = self.keyframe(pick, "grasp", targets["grasp"], q_pre, opening)
         q_shaped = q_start.copy()  # the fingers pre-shape before the arm moves in
         q_shaped[pick.finger_indices] = opening
         if not np.allclose(q_shaped, q_start):
             self.segments.append(_gripper_segment(pick, "preshape", q_start, q_shaped, 0.0, None))
-        self.move(pick, "start", "pre_grasp", q_shaped, q_pre)
-        q_grasp = self.move(pick, "pre_grasp", "grasp", q_pre, q_grasp, targets["grasp"])
+        q_pre = self.move(pick, "start", "pre_grasp", q_shaped, targets["pre_grasp"], opening,
+                          line=False)
+        q_grasp = self.move(pick, "pre_grasp", "grasp", q_pre, targets["grasp"], opening)
 
         X_WO = self.X_WS @ X_SO(obj) @ RigidTransform([0.0, 0.0, config.lift_gap])
         self.X_TO = pick.X_WT(q_grasp).inverse() @ X_WO
         carry = MotionModel(self.shelf, self.X_WS, self.objects, config, Held(obj, self.X_TO))
-        q = {"grasp": q_grasp.copy()}
-        q["grasp"][carry.finger_indices] = closed
-        previous = q["grasp"]
-        for name in ("lift", "retreat", "pre_place", "place_above", "place"):
-            q[name] = previous = self.keyframe(carry, name, targets[name], previous, closed)
-        place = MotionModel(self.shelf, self.X_WS, self.after, config, near=obj.name)
-
-        t0 = self.segments[-1].times[-1]
-        self.segments.append(_gripper_segment(carry, "close", q_grasp, q["grasp"], t0, obj.name))
+        closed_q = q_grasp.copy()
+        closed_q[carry.finger_indices] = closed
+        self.segments.append(_gripper_segment(carry, "close", q_grasp, closed_q, t0=self.end,
+                                              held=obj.name))
         names = ("grasp", "lift", "retreat", "pre_place", "place_above", "place")
-        current = q["grasp"]
+        current = closed_q
         for a, b in zip(names[:-1], names[1:], strict=True):
-            line = None if (a, b) == ("retreat", "pre_place") else targets[b]
-            current = self.move(carry, a, b, current, q[b], line)
+            current = self.move(carry, a, b, current, targets[b], closed,
+                                line=(a, b) != ("retreat", "pre_place"))
+        place = MotionModel(self.shelf, self.X_WS, self.after, config, near=obj.name)
         q_released = current.copy()
         q_released[place.finger_indices] = opening
-        q_post = self.keyframe(place, "post_place", targets["post_place"], q_released, opening)
-        t0 = self.segments[-1].times[-1]
-        self.segments.append(_gripper_segment(carry, "open", current, q_released, t0, obj.name))
-        self.move(place, "place", "post_place", q_released, q_post, targets["post_place"])
+        self.segments.append(_gripper_segment(carry, "open", current, q_released, t0=self.end,
+                                              held=obj.name))
+        self.move(place, "place", "post_place", q_released, targets["post_place"], opening)
+
+    @property
+    def end(self) -> float:
+        """s, where the time line of the segments so far ends."""
+        return self.segments[-1].times[-1]
 
 
 def _line_segment(model: MotionModel, name: str, q0: np.ndarray, X_W1: RigidTransform,
