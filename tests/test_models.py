@@ -98,7 +98,7 @@ def test_gripper_geometry_matches_the_2f85():
     plant, (robot, gripper) = _plant_with(UR5E_URL, GRIPPER_URL)
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base_link", robot))
     plant.WeldFrames(plant.GetFrameByName("tool0", robot),
-                     plant.GetFrameByName("gripper_base", gripper), RigidTransform())
+                     plant.GetFrameByName("tool_adapter", gripper), RigidTransform())
     plant.Finalize()
     assert plant.num_constraints() == 1, "the <mimic> finger must become a coupler constraint"
     for name in FINGER_JOINTS:
@@ -114,12 +114,18 @@ def test_gripper_geometry_matches_the_2f85():
         return plant.CalcRelativeTransform(context, G, plant.GetFrameByName(frame_name)).translation()
 
     np.testing.assert_allclose(p_G("tcp"), [0.0, 0.0, 0.145], atol=1e-12)
+    # the gripper sits on its 0.10 m tool extension: the tcp is 0.245 m from the flange
+    tool0 = plant.GetFrameByName("tool0", robot)
+    np.testing.assert_allclose(plant.CalcRelativeTransform(
+        context, tool0, plant.GetFrameByName("tcp", gripper)).translation(), [0.0, 0.0, 0.245],
+        atol=1e-12)
     left, right = p_G("left_finger"), p_G("right_finger")
     assert left[1] - right[1] == pytest.approx(0.085)  # inner pad gap = stroke
     outer = left[1] + 0.0125 - (right[1] - 0.0125)
     assert outer == pytest.approx(2 * 0.055)  # GripperConfig.swept_half_width
     mass = sum(plant.get_body(i).default_mass() for i in plant.GetBodyIndices(gripper))
-    assert 0.8 < mass < 1.0
+    adapter = plant.GetBodyByName("tool_adapter", gripper).default_mass()
+    assert 0.8 < mass - adapter < 1.0 and 0.2 <= adapter <= 0.4  # the 2F-85 and its extension
     # camera optical axis: ahead along the approach axis, pitched up, image "down" is -x (bottom)
     R_GC = plant.CalcRelativeTransform(context, G, plant.GetFrameByName("camera_link"))
     R = R_GC.rotation().matrix()

@@ -54,7 +54,7 @@ class StationConfig:
 
     time_step: float = 0.001  #: s, discrete MultibodyPlant step
     #: m, along world +x from the robot base axis (world origin) to the shelf's front edge
-    shelf_distance: float = 0.60
+    shelf_distance: float = 0.70
     shelf_lateral_offset: float = 0.0  #: m, along world +y, of the shelf frame origin
     camera: CameraConfig = dc.field(default_factory=CameraConfig)
     home_q: list[float] = dc.field(default_factory=lambda: list(HOME_Q))  #: rad, UR5e joints

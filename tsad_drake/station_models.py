@@ -101,12 +101,13 @@ def _register_primitive(plant: MultibodyPlant, body: RigidBody, X_BG: RigidTrans
 
 def add_robot(plant: MultibodyPlant, parser: Parser, X_WB: RigidTransform
               ) -> tuple[ModelInstanceIndex, ModelInstanceIndex]:
-    """UR5e welded at X_WB (base_link), the 2F-85 gripper welded at tool0; returns (robot, gripper)."""
+    """UR5e welded at X_WB (base_link), the 2F-85 gripper on its tool extension welded at tool0;
+    returns (robot, gripper)."""
     robot = parser.AddModelsFromUrl(UR5E_URL)[0]
     gripper = parser.AddModelsFromUrl(GRIPPER_URL)[0]
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base_link", robot), X_WB)
     plant.WeldFrames(plant.GetFrameByName("tool0", robot),
-                     plant.GetFrameByName("gripper_base", gripper), RigidTransform())
+                     plant.GetFrameByName("tool_adapter", gripper), RigidTransform())
     return robot, gripper
 
 

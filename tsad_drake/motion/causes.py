@@ -17,7 +17,7 @@ def _body_class(name: str) -> str:
     body = name.split("::")[-1]
     if body.endswith("_finger"):
         return "finger"
-    if body == "gripper_base":
+    if body in ("gripper_base", "tool_adapter"):
         return "palm"
     if body == "camera_link":
         return "camera"

@@ -253,7 +253,7 @@ def scene_directives(scenario: Scenario, X_WS: RigidTransform,
         weld("world", "ur5e::base_link"),
         model("gripper_2f85", GRIPPER_URL,
               default_joint_positions={j: [float(FINGER_OPEN)] for j in FINGER_JOINTS}),
-        weld("ur5e::tool0", "gripper_2f85::gripper_base"),
+        weld("ur5e::tool0", "gripper_2f85::tool_adapter"),
         model("ground", f"{scene}/ground.sdf"), weld("world", "ground::ground"),
         model("shelf", f"{scene}/shelf.sdf"), weld("world", "shelf::shelf", X_WS.translation()),
     ]
