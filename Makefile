@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic bench-extra bench-motion bench-real-physics report lint clean
+.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic bench-extra bench-motion bench-real-physics bench-physics bench-noise report lint clean
 
 all: test
 
@@ -161,6 +161,23 @@ bench-motion: setup
 	  $(TSAD) bench --scenario 1 --planner $$p --feasibility geometric --motion --episodes 10 \
 	    --workers $(BENCH_WORKERS) --out $(BENCH_DIR)/s1-$$p-motion.json || exit 1; done
 	$(MAKE) report
+
+# Table I executed in the physics world: every pick-and-place a Drake contact simulation, the next
+# view observed from the simulated state (TSAD, GP3, ROTS, ROTS* on scenarios 1-3, 30 episodes,
+# about 25 s per episode on one core).
+bench-physics: setup
+	mkdir -p $(BENCH_DIR)
+	for p in tsad gp3 rots-star rots; do for s in 1 2 3; do \
+	  $(TSAD) bench --scenario $$s --planner $$p --feasibility geometric --world physics \
+	    --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/s$$s-$$p-physics.json || exit 1; done; done
+
+# Success against depth-noise level (0, 1, 2, 4 mm; cluster segmentation; scenario 2, held-out
+# seeds 2000-2014) for TSAD and ROTS*: a sweep per planner, results/noise/<planner>/sweep.md.
+bench-noise: setup
+	for p in tsad rots_star; do \
+	  $(TSAD) sweep examples/grids/noise_curve_$$p.yaml --workers $(BENCH_WORKERS) \
+	    --out results/noise/$$p || exit 1; done
 
 report: setup
 	$(TSAD) report $(wildcard $(BENCH_DIR)/*.json results/physics/*.json) --out results/RESULTS.md
