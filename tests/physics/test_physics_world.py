@@ -104,6 +104,19 @@ def test_retrieval_carries_the_target_out_of_the_shelf(placed):
     assert world.num_actions == 2 and world.outcome().success
 
 
+def test_a_retrieval_without_motion_ends_the_episode_naming_each_refused_angle():
+    # a box 0.11 m across at every angle: wider than the 85 mm stroke, no angle has a motion
+    box = ObjectConfig(name="target", kind="rectangular", shape="box", size=[0.11, 0.11, 0.12],
+                       x=0.20, y=0.0)
+    scenario = _scene([box], name="too-wide-target")
+    world = PhysicsWorld(scenario)
+    assert not world.retrieve() and not world.success
+    assert world.num_actions == 0 and world.done  # nothing simulated, and the episode is over
+    reason = world.outcome().reason
+    assert reason.startswith("no retrieval motion: every angle refused")
+    assert reason.count(" deg ") == len(scenario.approach_angles) and "width" in reason
+
+
 def test_unseen_object_in_the_approach_is_knocked_over_and_named():
     # the robot saw only `pick` and the target: its motion goes straight through `blocker`
     scenario = _scene([

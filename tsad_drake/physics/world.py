@@ -34,6 +34,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 
 from tsad_drake.execution.world import ActionOutcome, GeometricWorld, World
+from tsad_drake.motion.causes import cause_label, failure_cause
 from tsad_drake.motion.scene import MotionConfig
 from tsad_drake.motion.verify import (
     ActionMotion,
@@ -241,8 +242,10 @@ class PhysicsWorld(World):
             return self.success
         target = self._start.target
         objects, aimed_at = self.believed_objects(target)
-        motion = self._retrieval_motion(objects, target)
+        motion, refused = self._retrieval_motion(objects, target)
         if motion is None:
+            self.failure = self.failure or ("no retrieval motion: every angle refused on the "
+                                            f"believed scene ({refused})")
             return False
         self.num_actions += 1
         before = self.poses()
@@ -273,22 +276,29 @@ class PhysicsWorld(World):
         return self.success
 
     def _retrieval_motion(self, objects: list[ObjectConfig], target: str
-                          ) -> ActionMotion | None:
-        """The pick half (through the retreat) of a motion taking the target, or None."""
+                          ) -> tuple[ActionMotion | None, str]:
+        """The pick half (through the retreat) of a motion taking the target, or None and why
+        each angle was refused (where and which bodies)."""
         believed = next(o for o in objects if o.name == target)
         scene = dc.replace(copy.deepcopy(self._start), objects=copy.deepcopy(objects))
         clear = GeometricWorld(scene).retrieval_angle()
         angles = sorted((float(a) for a in self._start.approach_angles), key=abs)
         if clear is not None:
             angles = [clear] + [a for a in angles if abs(a - clear) > 1e-9]
+        refused = []
         for theta in angles:
             action = Action(target, theta, believed.x, believed.y, theta)
             motion = plan_action(self._start, objects, action, self.q_command,
                                  self.motion_config, self.X_WS)
             if motion.verified:
                 names = [s.name for s in motion.segments]
-                return dc.replace(motion, segments=motion.segments[:names.index(RETREAT_SEGMENT) + 1])
-        return None
+                return dc.replace(motion, segments=motion.segments[
+                    :names.index(RETREAT_SEGMENT) + 1]), ""
+            cause = failure_cause(motion.failure)
+            parts = [f"{math.degrees(theta):.0f} deg", cause["where"],
+                     " vs ".join(cause["bodies"]) or cause_label(cause)]
+            refused.append(" ".join(p for p in parts if p))
+        return None, "; ".join(refused)
 
     def execute(self, action: Action) -> ActionOutcome:
         if self.done:
