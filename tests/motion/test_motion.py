@@ -146,3 +146,50 @@ def test_transfer_segment_returns_to_ready(scene, motions):
     segment = transfer_segment(scene, motions[0].objects_after, end, ready, "return->ready")
     assert segment.times[0] == 0.0 and segment.name == "return->ready"
     assert np.allclose(segment.q[0], end) and np.allclose(segment.q[-1], ready)
+
+
+def test_backed_off_move_goes_out_across_and_in_on_straight_lines(scene):
+    """The fallback for a move in front of the shelf the optimiser cannot give: straight out
+    along the tool axis, across behind the shelf, straight in; every segment collision-free on
+    replay and the tcp on both lines (forward kinematics)."""
+    from tsad_drake.motion.keyframes import R_SG
+    from tsad_drake.motion.verify import MotionFailure, _ActionPlanner, check_segment, plan_action
+
+    config = MotionConfig()
+    X_WS = StationConfig().X_WS(scene.shelf.floor_height)
+    # start where an action ends: withdrawn in front of the shelf after a placement
+    placed = plan_action(scene, scene.objects, Action("front", 0.0, 0.08, 0.10, math.radians(20)),
+                         ready_q(scene, scene.objects))
+    assert placed.verified, placed.failure
+    target = scene.object("target")
+    action = Action("target", math.radians(-20), 0.10, -0.15, 0.0)
+    planner = _ActionPlanner(scene.shelf, X_WS, placed.objects_after, action, config)
+    model = MotionModel(scene.shelf, X_WS, placed.objects_after, config, near="target")
+    start = placed.end_q
+    X_ST = keyframe_targets(target, action.theta_pick, action.x, action.y, action.theta_place,
+                            config)["pre_grasp"]
+    finger = float(start[model.finger_indices[0]])  # the fingers stay as they are
+    planner._backed_off(model, "start->pre_grasp", start, X_ST, finger, MotionFailure("direct"))
+    names = [s.name for s in planner.segments]
+    assert names == ["start->pre_grasp (out)", "start->pre_grasp (across)",
+                     "start->pre_grasp (in)"]
+    for a, b in zip(planner.segments[:-1], planner.segments[1:]):
+        assert np.allclose(a.q[-1], b.q[0]) and a.times[-1] == pytest.approx(b.times[0])
+    for segment in planner.segments:
+        assert check_segment(model, segment) is None
+    out, into = planner.segments[0], planner.segments[-1]
+    for segment in (out, into):
+        X0, X1 = model.X_WT(segment.q[0]), model.X_WT(segment.q[-1])
+        axis = X1.translation() - X0.translation()
+        assert np.linalg.norm(axis) == pytest.approx(config.back_off, abs=3e-4)  # IK: 1e-4 per axis
+        assert np.allclose(axis / np.linalg.norm(axis),
+                           (1 if segment is into else -1) * X0.rotation().matrix()[:, 2],
+                           atol=3e-3)  # along the tool axis (the in-line starts at an IK pose)
+        for q in segment.q:
+            p = model.X_WT(q).translation() - X0.translation()
+            assert np.linalg.norm(np.cross(p, axis / np.linalg.norm(axis))) < 2e-4  # on the line
+    position, angle = pose_errors(model, into.q[-1], X_WS @ X_ST)
+    assert position < 2e-4 and angle < 1e-3
+    assert np.allclose(planner.keyframes["pre_grasp"], into.q[-1])
+    assert np.allclose(R_SG(action.theta_pick).matrix(),
+                       (X_WS.inverse() @ model.X_WT(into.q[-1])).rotation().matrix(), atol=1e-3)

@@ -166,6 +166,19 @@ def test_slip_is_relative_motion_in_the_gripper():
     assert mm == pytest.approx(3.0) and deg == pytest.approx(5.0)
 
 
+def test_a_degenerate_perceived_fit_becomes_a_solid_the_motion_level_can_build():
+    from tsad_drake.physics.world import MIN_BELIEVED_SIZE, believed_object
+    points = np.array([[0.20, 0.0, 0.12], [0.21, 0.0, 0.10], [0.20, 0.004, 0.11]])
+    sliver = PerceivedObject("obj1", points, 0.20, 0.0, 0.0, shape="cylinder", size=(0.0,))
+    obj = believed_object(sliver, "obj1")
+    assert obj.size[0] == pytest.approx(0.01) and obj.height == pytest.approx(0.12)
+    flat = PerceivedObject("obj2", points[:1], 0.20, 0.0, 0.0, shape="box", size=(0.0, 0.04))
+    box = believed_object(flat, "obj2")
+    assert box.size[:2] == [MIN_BELIEVED_SIZE, 0.04]
+    fine = PerceivedObject("obj3", points, 0.20, 0.0, 0.0, shape="cylinder", size=(0.03,))
+    assert believed_object(fine, "obj3").size[0] == 0.03  # a sound fit is kept as it is
+
+
 def test_lying_cylinder_footprint():
     obj = ObjectConfig(name="c", shape="cylinder", size=[0.03, 0.15])
     X = RigidTransform(RotationMatrix.MakeYRotation(math.pi / 2), [0.1, 0.0, 0.03])

@@ -29,6 +29,7 @@ import signal
 import sys
 import time
 import traceback
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from tsad_drake.bench.metrics import summarise
@@ -332,7 +333,7 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
             _run_pool(todo, workers, threads, record)
     except KeyboardInterrupt:
         raise KeyboardInterrupt(f"{len(done)} {kept}") from None
-    except cf.process.BrokenProcessPool:
+    except BrokenProcessPool:
         raise RunFailure(f"a bench worker process died (killed or out of memory); "
                          f"{len(done)} {kept}") from None
     finally:

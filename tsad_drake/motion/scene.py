@@ -74,6 +74,9 @@ class MotionConfig:
     #: line cannot give falls back to trajectory optimisation. False: optimise every move
     straight_lines: bool = True
     line_step: float = 0.005  #: m, tcp waypoint spacing along a straight line
+    #: m, a move in front of the shelf the optimiser cannot give goes out, across and in this far
+    #: behind the two poses along their tool axes (straight lines; False straight_lines: never)
+    back_off: float = 0.10
     snopt_major_iterations: int = 100  #: SNOPT iteration limit of one segment's optimisation
     min_duration: float = 0.2  #: s, shortest segment
     max_duration: float = 8.0  #: s, longest segment

@@ -203,7 +203,7 @@ class _ActionPlanner:
         cannot be followed or collides is the keyframe solved by IK from q0 and the segment
         optimised to it (so a line move costs no IK).
         """
-        t0 = self.segments[-1].times[-1] if self.segments else 0.0
+        t0 = self.end
         name = f"{start}->{end}"
         if line and self.config.straight_lines:
             segment = _line_segment(model, name, q0, self.X_WS @ X_ST, t0)
@@ -212,8 +212,42 @@ class _ActionPlanner:
                 self.keyframes[end] = segment.q[-1].copy()
                 return segment.q[-1].copy()
         q1 = self.keyframe(model, end, X_ST, q0, finger)
-        self.segments.append(_arm_segment(model, name, q0, q1, t0))
-        return q1
+        try:
+            self.segments.append(_arm_segment(model, name, q0, q1, t0))
+        except MotionFailure as err:
+            if line or not self.config.straight_lines:
+                raise
+            self._backed_off(model, name, q0, X_ST, finger, err)
+        return self.keyframes[end]
+
+    def _backed_off(self, model: MotionModel, name: str, q0: np.ndarray, X_ST: RigidTransform,
+                    finger: float, failure: MotionFailure) -> None:
+        """A move in front of the shelf the optimiser could not give directly (it sweeps the
+        fingers past an object near the front edge while the tool turns): back the tcp out along
+        its own axis by `back_off` (where the arm can), move to the same distance behind the
+        target pose, and go in along the target's axis, both ends straight lines. Raises the
+        original failure if that fails too; the keyframe at the end is the in-line's end."""
+        back = self.config.back_off
+
+        def backed(X_WT: RigidTransform) -> RigidTransform:
+            return RigidTransform(X_WT.rotation(), X_WT.translation()
+                                  - back * X_WT.rotation().matrix()[:, 2])
+
+        X_W1 = self.X_WS @ X_ST
+        out = _line_segment(model, f"{name} (out)", q0, backed(model.X_WT(q0)), self.end)
+        if out is not None:  # none where the arm cannot draw back further (the ready pose)
+            self.segments.append(out)
+            q0 = out.q[-1]
+        try:
+            q_in = solve_keyframe(model, backed(X_W1), q0[model.arm_indices], finger)
+            self.segments.append(_arm_segment(model, f"{name} (across)", q0, q_in, self.end))
+        except (KeyframeError, MotionFailure):
+            raise failure from None
+        into = _line_segment(model, f"{name} (in)", q_in, X_W1, self.end)
+        if into is None:
+            raise failure
+        self.segments.append(into)
+        self.keyframes[name.split("->")[1]] = into.q[-1].copy()
 
     def run(self, q_start: np.ndarray) -> None:
         config, action, obj = self.config, self.action, self.obj
@@ -255,7 +289,7 @@ class _ActionPlanner:
     @property
     def end(self) -> float:
         """s, where the time line of the segments so far ends."""
-        return self.segments[-1].times[-1]
+        return self.segments[-1].times[-1] if self.segments else 0.0
 
 
 def _line_segment(model: MotionModel, name: str, q0: np.ndarray, X_W1: RigidTransform,

@@ -71,13 +71,21 @@ RETREAT_SEGMENT = "lift->retreat"
 PLACE_SEGMENT = "place_above->place"
 
 
+#: m, smallest radius, side or height the motion level is given for a perceived object
+MIN_BELIEVED_SIZE = 0.005
+
+
 def believed_object(perceived: PerceivedObject, name: str) -> ObjectConfig:
     """An upright ObjectConfig from a perceived object: fitted footprint, height = highest point."""
-    height = float(np.max(perceived.points[:, 2])) if len(perceived.points) else 0.1
-    if perceived.shape == "cylinder":
-        size = [float(perceived.size[0]), height]
-    else:
-        size = [float(perceived.size[0]), float(perceived.size[1]), height]
+    points = perceived.points
+    height = max(float(np.max(points[:, 2])) if len(points) else 0.1, MIN_BELIEVED_SIZE)
+    # a degenerate fit (a sliver of points) takes the seen points' reach from the centre
+    reach = (float(np.max(np.linalg.norm(points[:, :2] - [perceived.x, perceived.y], axis=1)))
+             if len(points) else 0.0)
+    fitted = [max(float(v), MIN_BELIEVED_SIZE) if float(v) >= MIN_BELIEVED_SIZE
+              else max(reach * (1.0 if perceived.shape == "cylinder" else 2.0), MIN_BELIEVED_SIZE)
+              for v in perceived.size[:1 if perceived.shape == "cylinder" else 2]]
+    size = fitted + [height]
     shape = "cylinder" if perceived.shape == "cylinder" else "box"
     return ObjectConfig(name=name, kind=shape if shape == "cylinder" else "rectangular",
                         shape=shape, size=size, x=float(perceived.x), y=float(perceived.y),
