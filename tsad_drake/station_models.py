@@ -54,6 +54,8 @@ def models_dir() -> Path:
 PACKAGE_XML = models_dir() / "package.xml"
 UR5E_URL = "package://tsad_drake/urdf/ur5e/ur5e.urdf"
 GRIPPER_URL = "package://tsad_drake/urdf/gripper/gripper_2f85.urdf"
+#: the gripper model's frame that is welded to the UR5e's tool0 (its tool extension's arm end)
+GRIPPER_MOUNT_FRAME = "tool_adapter"
 
 #: joint names of the arm, in the order of `Station.observation_q`
 UR5E_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
@@ -107,7 +109,7 @@ def add_robot(plant: MultibodyPlant, parser: Parser, X_WB: RigidTransform
     gripper = parser.AddModelsFromUrl(GRIPPER_URL)[0]
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName("base_link", robot), X_WB)
     plant.WeldFrames(plant.GetFrameByName("tool0", robot),
-                     plant.GetFrameByName("tool_adapter", gripper), RigidTransform())
+                     plant.GetFrameByName(GRIPPER_MOUNT_FRAME, gripper), RigidTransform())
     return robot, gripper
 
 

@@ -31,6 +31,7 @@ from tsad_drake.station import HOME_Q, StationConfig
 from tsad_drake.station_models import (
     FINGER_JOINTS,
     FINGER_OPEN,
+    GRIPPER_MOUNT_FRAME,
     GRIPPER_URL,
     UR5E_JOINTS,
     UR5E_URL,
@@ -253,7 +254,7 @@ def scene_directives(scenario: Scenario, X_WS: RigidTransform,
         weld("world", "ur5e::base_link"),
         model("gripper_2f85", GRIPPER_URL,
               default_joint_positions={j: [float(FINGER_OPEN)] for j in FINGER_JOINTS}),
-        weld("ur5e::tool0", "gripper_2f85::tool_adapter"),
+        weld("ur5e::tool0", f"gripper_2f85::{GRIPPER_MOUNT_FRAME}"),
         model("ground", f"{scene}/ground.sdf"), weld("world", "ground::ground"),
         model("shelf", f"{scene}/shelf.sdf"), weld("world", "shelf::shelf", X_WS.translation()),
     ]

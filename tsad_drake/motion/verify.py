@@ -88,14 +88,14 @@ def moved_object(obj: ObjectConfig, action: Action) -> ObjectConfig:
 def _first_collision(model: MotionModel, times: np.ndarray, qs: np.ndarray) -> str | None:
     """None when every sample and every edge between samples is collision-free, else what hit."""
     checker = model.checker
-    pairs = [(qs[i], qs[i + 1]) for i in range(len(qs) - 1)]
-    if pairs and all(checker.CheckEdgesCollisionFree(pairs)):  # edges include their ends
+    edges = checker.CheckEdgesCollisionFree([(qs[i], qs[i + 1]) for i in range(len(qs) - 1)])
+    if edges and all(edges):  # an edge check includes its ends: the samples need no check
         return None
+    # something hit: the first colliding sample, or the first point of an edge before it
     free = checker.CheckConfigsCollisionFree(list(qs))
     bad = [i for i, ok in enumerate(free) if not ok]
     limit = bad[0] if bad else len(qs) - 1
-    edges = checker.CheckEdgesCollisionFree([(qs[i], qs[i + 1]) for i in range(limit)])
-    for i, ok in enumerate(edges):
+    for i, ok in enumerate(edges[:limit]):
         if not ok:
             steps = max(int(np.ceil(np.linalg.norm(qs[i + 1] - qs[i]) / checker.edge_step_size())), 1)
             for s in np.linspace(0.0, 1.0, steps + 1):
@@ -217,16 +217,16 @@ class _ActionPlanner:
         except MotionFailure as err:
             if line or not self.config.straight_lines:
                 raise
-            self._backed_off(model, name, q0, X_ST, finger, err)
-        return self.keyframes[end]
+            q1 = self.keyframes[end] = self._backed_off(model, name, q0, X_ST, finger, err)
+        return q1
 
     def _backed_off(self, model: MotionModel, name: str, q0: np.ndarray, X_ST: RigidTransform,
-                    finger: float, failure: MotionFailure) -> None:
+                    finger: float, failure: MotionFailure) -> np.ndarray:
         """A move in front of the shelf the optimiser could not give directly (it sweeps the
         fingers past an object near the front edge while the tool turns): back the tcp out along
         its own axis by `back_off` (where the arm can), move to the same distance behind the
         target pose, and go in along the target's axis, both ends straight lines. Raises the
-        original failure if that fails too; the keyframe at the end is the in-line's end."""
+        original failure if that fails too; returns where the in-line ends (the keyframe)."""
         back = self.config.back_off
 
         def backed(X_WT: RigidTransform) -> RigidTransform:
@@ -247,7 +247,7 @@ class _ActionPlanner:
         if into is None:
             raise failure
         self.segments.append(into)
-        self.keyframes[name.split("->")[1]] = into.q[-1].copy()
+        return into.q[-1].copy()
 
     def run(self, q_start: np.ndarray) -> None:
         config, action, obj = self.config, self.action, self.obj

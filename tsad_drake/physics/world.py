@@ -78,15 +78,16 @@ MIN_BELIEVED_SIZE = 0.005
 def believed_object(perceived: PerceivedObject, name: str) -> ObjectConfig:
     """An upright ObjectConfig from a perceived object: fitted footprint, height = highest point."""
     points = perceived.points
+    shape = "cylinder" if perceived.shape == "cylinder" else "box"
     height = max(float(np.max(points[:, 2])) if len(points) else 0.1, MIN_BELIEVED_SIZE)
-    # a degenerate fit (a sliver of points) takes the seen points' reach from the centre
+    # a degenerate fit (a sliver of points) takes the seen points' reach from the centre instead:
+    # a radius for a cylinder, a side (twice the reach) for a box
     reach = (float(np.max(np.linalg.norm(points[:, :2] - [perceived.x, perceived.y], axis=1)))
              if len(points) else 0.0)
-    fitted = [max(float(v), MIN_BELIEVED_SIZE) if float(v) >= MIN_BELIEVED_SIZE
-              else max(reach * (1.0 if perceived.shape == "cylinder" else 2.0), MIN_BELIEVED_SIZE)
-              for v in perceived.size[:1 if perceived.shape == "cylinder" else 2]]
-    size = fitted + [height]
-    shape = "cylinder" if perceived.shape == "cylinder" else "box"
+    fallback = max(reach if shape == "cylinder" else 2.0 * reach, MIN_BELIEVED_SIZE)
+    footprint = [float(v) if float(v) >= MIN_BELIEVED_SIZE else fallback
+                 for v in perceived.size[:1 if shape == "cylinder" else 2]]
+    size = footprint + [height]
     return ObjectConfig(name=name, kind=shape if shape == "cylinder" else "rectangular",
                         shape=shape, size=size, x=float(perceived.x), y=float(perceived.y),
                         yaw=float(perceived.yaw))
