@@ -10,6 +10,10 @@ least squares averages the noise out instead:
   it (its noise averages out); a face seen by too few side points takes the extent of the top
   cap's points and the side points on seen faces, less `edge_trim` extreme points at each end;
   an extent still shorter than the smallest plausible side is completed away from the camera;
+  with the views' free space (`free_space.FreeSpace`), an end no face was seen on then grows into
+  the shelf, in `grow_step`s, until the next step would cover space a camera saw through or the
+  box would outgrow the largest object (`max_length` by `max_width`): a box whose back is hidden
+  is as long as the hidden space allows, not as short as its seen part;
 - optionally (`box_outline`) the outline is, or also covers, the support polygon of the seen
   points completed through the centre, trimmed of their extremes and drawn in by the noise the
   fit saw (measured worse on scenario 2: kept off).
@@ -27,6 +31,7 @@ import dataclasses as dc
 import numpy as np
 
 from tsad_drake.geometry2d import convex_hull, footprint_polygon
+from tsad_drake.perception.free_space import FreeSpace
 from tsad_drake.perception.pose import PlanarPose, PoseConfig, fit_circle, fit_rectangle_yaw
 
 
@@ -41,6 +46,9 @@ class FootprintConfig:
     #: m, a face's points must span this much along it (10th-90th percentile); a corner sliver
     #: or the end of a partly hidden side is no face
     min_face_span: float = 0.012
+    #: a face's largest gap across, as a share of its points' span (1: no such test; 0.6 tells
+    #: the seen ends of two side faces cut off by an occluder from a face)
+    max_face_gap: float = 1.0
     uncertainty_floor: float = 0.0003  #: m, uncertainty of a perfect fit
     #: uncertainty added per robust residual sigma, for a segment of 100 points (the standard
     #: error of a least-squares fit falls with the square root of the points)
@@ -56,6 +64,14 @@ class FootprintConfig:
     #: a segment is a cylinder when its circle fit's robust residual is below this times the box
     #: fit's (noise inflates both residuals alike, so their ratio, not a difference, decides)
     circle_ratio: float = 1.2
+    #: grow unseen box ends into space no camera saw through (needs the views' free space)
+    grow_hidden: bool = False
+    grow_step: float = 0.003  #: m, step of that growth
+    grow_stop_samples: int = 2  #: seen-free points of a step's face that stop the growth
+    max_length: float = 0.135  #: m, longest box footprint side in the built-in scenes
+    #: m, and the longest of its shorter side (the built-in boxes and pillars are at most 54 mm
+    #: wide; a wider guess makes a hidden target too wide for the gripper)
+    max_width: float = 0.055
 
 
 @dc.dataclass
@@ -120,8 +136,8 @@ def _sparse_edges(values: np.ndarray, trim: int) -> tuple[float, float]:
     return float(ordered[k]), float(ordered[-1 - k])
 
 
-def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: FootprintConfig
-            ) -> tuple[np.ndarray, tuple[float, float], float]:
+def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: FootprintConfig,
+            free: FreeSpace | None = None) -> tuple[np.ndarray, tuple[float, float], float]:
     """Centre, (sx, sy) and robust residual of the box at `yaw` (see the module docstring)."""
     c, s = np.cos(yaw), np.sin(yaw)
     axes = (np.array([c, s]), np.array([-s, c]))
@@ -144,7 +160,11 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
         on = (nearest == face) & (dist[face] <= config.face_band)
         across = side_coords[1 - axis][on]
         spread = np.ptp(np.percentile(across, [10, 90])) if len(across) else 0.0
-        if on.sum() >= config.min_face_points and spread >= config.min_face_span:
+        # the seen ends of the two faces beside it, cut off at one depth by an occluder, are
+        # no face: a face's points cover it across without a gap of most of its width
+        gap = float(np.diff(np.sort(across)).max()) if len(across) > 1 else 0.0
+        if (on.sum() >= config.min_face_points and spread >= config.min_face_span
+                and gap <= config.max_face_gap * np.ptp(across)):
             coord = side_coords[axis][on]
             position = float(np.median(coord))
             faces.append(position)
@@ -158,6 +178,10 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
         lo = faces[2 * axis] if faces[2 * axis] is not None else cap_lo
         hi = faces[2 * axis + 1] if faces[2 * axis + 1] is not None else cap_hi
         extents.append([lo, hi])
+    if free is not None and config.grow_hidden:  # before the completion to plausible sides
+        top = float(np.sort(points[:, 2])[-min(len(points), 5)])
+        extents = _grow_hidden_ends(extents, axes, [f is not None for f in faces], top, free,
+                                    config)
     want = [max(hi - lo, pose_config.min_box_side) for lo, hi in extents]
     if max(want) < pose_config.square_below:
         want = [max(want)] * 2
@@ -177,6 +201,43 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
     return centre, (float(extents[0][1] - extents[0][0]), float(extents[1][1] - extents[1][0])), sigma
 
 
+def _end_samples(extents: list[list[float]], axes: tuple[np.ndarray, np.ndarray], axis: int,
+                 end: int, at: float, top: float) -> np.ndarray:
+    """Points of the box's side face at coordinate `at` of `axis` (end 0: low, 1: high): across
+    the face (kept `inset` inside its edges: a ray grazing past the box's side is no evidence)
+    and up it, from near the floor to just under the top (a point just behind a box, below its top, is
+    hidden by the box itself: the higher the sample, the shorter that shadow)."""
+    lo, hi = extents[1 - axis]
+    inset = min(0.004, (hi - lo) / 4)
+    across = np.linspace(lo + inset, hi - inset, 5)
+    heights = np.linspace(0.02, max(top - 0.003, 0.021), 4)
+    xy = axes[axis] * at + np.outer(across, axes[1 - axis])
+    return np.array([[p[0], p[1], z] for p in xy for z in heights])
+
+
+def _grow_hidden_ends(extents: list[list[float]], axes: tuple[np.ndarray, np.ndarray],
+                      seen: list[bool], top: float, free: FreeSpace, config: FootprintConfig
+                      ) -> list[list[float]]:
+    """Grow each end no face was seen on (see the module docstring): the longer axis up to
+    `max_length`, the shorter up to `max_width`, far ends (into the shelf) first."""
+    extents = [list(e) for e in extents]
+    long_axis = int(np.argmax([hi - lo for lo, hi in extents]))
+    for axis in (long_axis, 1 - long_axis):
+        limit = config.max_length if axis == long_axis else config.max_width
+        ends = sorted((0, 1), key=lambda end: -axes[axis][0] * (1 if end else -1))
+        for end in ends:
+            if seen[2 * axis + end]:
+                continue
+            sign = 1.0 if end else -1.0
+            while extents[axis][1] - extents[axis][0] + config.grow_step <= limit:
+                at = extents[axis][end] + sign * config.grow_step
+                samples = _end_samples(extents, axes, axis, end, at, top)
+                if free.seen_free(samples).sum() >= config.grow_stop_samples:
+                    break
+                extents[axis][end] = at
+    return extents
+
+
 def support_polygon(xy: np.ndarray, trim: int, shrink: float, directions: int = 32
                     ) -> np.ndarray:
     """Convex polygon bounded, in each of `directions`, by the (`trim`+1)-th farthest point less
@@ -194,8 +255,9 @@ def support_polygon(xy: np.ndarray, trim: int, shrink: float, directions: int = 
 
 
 def fit_footprint(points: np.ndarray, pose: PlanarPose, pose_config: PoseConfig,
-                  config: FootprintConfig) -> FittedFootprint:
-    """The fitted outline of one segment whose planar pose (and shape) `pose` estimated."""
+                  config: FootprintConfig, free: FreeSpace | None = None) -> FittedFootprint:
+    """The fitted outline of one segment whose planar pose (and shape) `pose` estimated
+    (`free`: the views' free space, for hidden box ends)."""
     points = np.asarray(points, dtype=float)
     if len(points) < pose_config.min_side_points:
         outline = footprint_polygon(pose.shape, pose.size if pose.size[0] > 0 else (0.01,),
@@ -205,7 +267,7 @@ def fit_footprint(points: np.ndarray, pose: PlanarPose, pose_config: PoseConfig,
     centre, radius, circle_sigma = fit_cylinder(points, pose_config, config)
     yaw, _ = fit_rectangle_yaw(_side_points(points, pose_config)[:, :2],
                                pose_config.yaw_step_deg)
-    box_centre, box_size, box_sigma = fit_box(points, yaw, pose_config, config)
+    box_centre, box_size, box_sigma = fit_box(points, yaw, pose_config, config, free)
     if circle_sigma < config.circle_ratio * box_sigma:
         shape, size, sigma, yaw = "cylinder", (radius,), circle_sigma, 0.0
     else:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from tsad_drake.perception.footprint import FootprintConfig, fit_footprint
+from tsad_drake.perception.free_space import FreeSpace
 from tsad_drake.perception.pointcloud import CloudConfig, LabelledCloud, views_to_cloud
 from tsad_drake.perception.pose import PoseConfig, estimate_planar_pose
 from tsad_drake.perception.segmentation import ClusterConfig, Segment, segment
@@ -95,6 +96,8 @@ def perceive(views: list[View], intrinsics: np.ndarray, scenario: Scenario,
     names = [o.name for o in scenario.objects]
     target_label = names.index(scenario.target) if scenario.target in names else None
     segments = segment(cloud, segmentation, names, target_label, config.cluster)
+    free = (FreeSpace([v.depth for v in views], [v.X_SC for v in views], intrinsics)
+            if config.footprint.grow_hidden else None)
     objects = []
     for seg in segments:
         pose = estimate_planar_pose(seg.points, config.pose)
@@ -103,7 +106,7 @@ def perceive(views: list[View], intrinsics: np.ndarray, scenario: Scenario,
                                            is_target=seg.is_target, shape=pose.shape,
                                            size=tuple(pose.size)))
             continue
-        fit = fit_footprint(seg.points, pose, config.pose, config.footprint)
+        fit = fit_footprint(seg.points, pose, config.pose, config.footprint, free)
         objects.append(PerceivedObject(seg.name, seg.points, fit.x, fit.y, fit.yaw,
                                        is_target=seg.is_target, shape=fit.shape,
                                        size=tuple(fit.size), outline=fit.outline,

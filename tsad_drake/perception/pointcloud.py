@@ -48,6 +48,10 @@ class CloudConfig:
     #: back-projection: flying pixels between surfaces and the far side of each depth edge
     #: (0: off)
     shadow_jump: float = 0.0
+    #: a reading beyond the jump that continues its neighbour's slope (a top seen at a grazing
+    #: angle) stays when the two steps differ by at most this fraction (0: every such reading
+    #: goes; see `drop_far_side_of_edges`)
+    shadow_slope_tolerance: float = 0.0
     #: statistical outlier removal per view (flying pixels): neighbours compared (0: off)
     outlier_neighbours: int = 0
     #: a point whose mean neighbour distance exceeds the view's mean by this many standard
@@ -55,20 +59,36 @@ class CloudConfig:
     outlier_std_ratio: float = 2.0
 
 
-def drop_far_side_of_edges(depth: np.ndarray, jump: float) -> np.ndarray:
-    """`depth` with inf where a reading lies more than `jump` (m) beyond its nearest 4-neighbour:
-    flying pixels (readings between a silhouette and what lies behind it) and the occluded side
-    of each depth edge go; an object's own silhouette, the near side, stays."""
+def drop_far_side_of_edges(depth: np.ndarray, jump: float, slope_tolerance: float = 0.0
+                           ) -> np.ndarray:
+    """`depth` with inf where a reading lies more than `jump` (m) beyond a 4-neighbour and does
+    not continue that neighbour's surface: flying pixels (readings between a silhouette and what
+    lies behind it) and the occluded side of each depth edge go; an object's own silhouette, the
+    near side, stays.
+
+    A surface seen at a grazing angle (an object's top from a camera a little above it) steps by
+    more than `jump` from pixel to pixel too. With `slope_tolerance` > 0 such a reading stays
+    when it continues a slope: the neighbour's own step towards the camera, one pixel further on,
+    is within `slope_tolerance` (a fraction of the step) of its own. A flying pixel's near
+    neighbour sits on a face turned to the camera (no such step), so it goes either way.
+    """
     depth = np.asarray(depth, dtype=float)
     if jump <= 0:
         return depth
     finite = np.where(np.isfinite(depth) & (depth > 0), depth, np.inf)
-    padded = np.pad(finite, 1, mode="edge")
-    nearest = np.minimum.reduce([padded[:-2, 1:-1], padded[2:, 1:-1], padded[1:-1, :-2],
-                                 padded[1:-1, 2:]])
-    out = depth.copy()
+    padded = np.pad(finite, 2, mode="constant", constant_values=np.inf)
+    h, w = finite.shape
+    far_side = np.zeros(finite.shape, dtype=bool)
     with np.errstate(invalid="ignore"):
-        out[np.isfinite(finite) & (finite - nearest > jump)] = np.inf
+        for dv, du in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+            q = padded[2 + dv:2 + dv + h, 2 + du:2 + du + w]
+            q2 = padded[2 + 2 * dv:2 + 2 * dv + h, 2 + 2 * du:2 + 2 * du + w]
+            step = finite - q
+            slope = (np.abs((q - q2) - step) <= slope_tolerance * step if slope_tolerance > 0
+                     else np.zeros(finite.shape, dtype=bool))
+            far_side |= np.isfinite(finite) & np.isfinite(q) & (step > jump) & ~slope
+    out = depth.copy()
+    out[far_side] = np.inf
     return out
 
 
@@ -176,7 +196,8 @@ def views_to_cloud(views: list[tuple[np.ndarray, np.ndarray | None, np.ndarray]]
     """(depth, label, X_SC) per view -> one fused, shelf-free, down-sampled cloud in S."""
     config = config or CloudConfig()
     clouds = [remove_outliers(
-        remove_shelf(depth_to_cloud(drop_far_side_of_edges(depth, config.shadow_jump),
+        remove_shelf(depth_to_cloud(drop_far_side_of_edges(depth, config.shadow_jump,
+                                                           config.shadow_slope_tolerance),
                                     intrinsics, X_SC, label, config.max_depth), shelf, config),
         config.outlier_neighbours, config.outlier_std_ratio)
         for depth, label, X_SC in views]

@@ -52,6 +52,13 @@ class ClusterConfig:
     max_object_length: float = 0.0
     max_object_width: float = 0.0  #: m, and likewise a cluster wider than this across its axis
     max_split: int = 4  #: most parts one cluster is split into
+    #: m, a flat part (a top seen without its sides: the camera samples a top it sees at a grazing
+    #: angle in rows centimetres apart, so the far rows of a long top come apart from the rest)
+    #: joins the part whose top is at its height and whose cap comes this close to its own in the
+    #: floor plane, when together they are no longer or wider than one object (0: off; needs
+    #: `max_object_length` and `max_object_width`)
+    top_join_gap: float = 0.0
+    top_join_height: float = 0.004  #: m, tops this close in height are one top
 
 
 def segment_by_label(cloud: LabelledCloud, names: list[str], target_label: int | None,
@@ -154,6 +161,8 @@ def cluster_cloud(cloud: LabelledCloud, config: ClusterConfig | None = None) -> 
     for c in range(coarse.max() + 1 if len(coarse) else 0):
         parts += _split_touching(points, np.flatnonzero(coarse == c), config)
     parts = _absorb_fragments(points, parts, config)
+    if config.top_join_gap > 0 and config.max_object_length > 0:
+        parts = join_tops(points, parts, config)
     if config.max_object_length > 0:
         parts = [q for p in parts for q in split_oversized(points, p, config)]
     ids = np.full(len(points), -1, dtype=int)
@@ -223,20 +232,68 @@ def _kmeans(xy: np.ndarray, k: int, iterations: int = 30) -> np.ndarray:
     return assign
 
 
+def _fits_one_object(points: np.ndarray, part: np.ndarray, config: ClusterConfig) -> bool:
+    length, width = _extent(points[part, :2])
+    return length <= config.max_object_length and width <= config.max_object_width
+
+
+def _top(points: np.ndarray) -> float:
+    """Top height of a part, robust to a few stray points above it (the 5th highest)."""
+    z = np.sort(points[:, 2])
+    return float(z[-min(len(z), 5)])
+
+
+def join_tops(points: np.ndarray, parts: list[np.ndarray], config: ClusterConfig
+              ) -> list[np.ndarray]:
+    """Join parts that are one top seen in pieces: a flat part (z range under
+    `min_cluster_height`: a top without its sides) or a capless fragment joins the whole part
+    (neither) whose top
+    matches its own within `top_join_height` and whose top cap comes within `top_join_gap` of
+    it in the floor plane, nearest first, when the two together fit one object; repeated until
+    nothing joins (a far row of a top joins once the rows between have). What nothing matches
+    stays as it is."""
+    from scipy.spatial import cKDTree
+
+    parts = [p for p in parts if len(p)]
+
+    def loose(part: np.ndarray) -> bool:
+        return bool(np.ptp(points[part, 2]) < config.min_cluster_height
+                    or (len(part) < config.fragment_points and not _has_cap(points[part], config)))
+
+    joined = True
+    while joined:
+        joined = False
+        tops = [_top(points[p]) for p in parts]
+        caps = [p[points[p, 2] >= t - config.cap_band] for p, t in zip(parts, tops, strict=True)]
+        is_loose = [loose(p) for p in parts]
+        for k in sorted((k for k in range(len(parts)) if is_loose[k]), key=lambda k: -len(parts[k])):
+            tree = cKDTree(points[parts[k], :2])
+            best, best_gap = None, config.top_join_gap
+            for j, part in enumerate(parts):
+                if is_loose[j] or abs(tops[j] - tops[k]) > config.top_join_height:
+                    continue
+                gap = float(tree.query(points[caps[j], :2])[0].min())
+                if gap <= best_gap and _fits_one_object(
+                        points, np.concatenate([part, parts[k]]), config):
+                    best, best_gap = j, gap
+            if best is not None:
+                parts[best] = np.sort(np.concatenate([parts[best], parts[k]]))
+                del parts[k]
+                joined = True
+                break
+    return parts
+
+
 def split_oversized(points: np.ndarray, members: np.ndarray, config: ClusterConfig
                     ) -> list[np.ndarray]:
     """`members` as one part, or split into the fewest k-means parts (floor plane) none of which
     is longer or wider than one object can be (objects whose gap the noise bridged)."""
-    def fits(part: np.ndarray) -> bool:
-        length, width = _extent(points[part, :2])
-        return length <= config.max_object_length and width <= config.max_object_width
-
-    if len(members) < 2 * config.min_cluster_points or fits(members):
+    if len(members) < 2 * config.min_cluster_points or _fits_one_object(points, members, config):
         return [members]
     for k in range(2, config.max_split + 1):
         assign = _kmeans(points[members, :2], k)
         parts = [members[assign == j] for j in range(k)]
-        if all(fits(p) for p in parts if len(p)):
+        if all(_fits_one_object(points, p, config) for p in parts if len(p)):
             return [p for p in parts if len(p)]
     return [members]
 
