@@ -63,11 +63,9 @@ def test_far_side_filter_keeps_a_grazing_top_and_drops_a_flying_pixel(views):
 
 
 def _box_points(views) -> np.ndarray:
-    (rendered, intrinsics) = views
-    return np.concatenate([depth_to_cloud(d, intrinsics, X, lab).select(lab_mask).points
-                           for d, lab, X in rendered
-                           for lab_mask in [np.asarray(lab).ravel()[np.isfinite(d).ravel()
-                                            & (np.asarray(d).ravel() > 0)] == 0]])
+    rendered, intrinsics = views
+    clouds = [depth_to_cloud(d, intrinsics, X, lab) for d, lab, X in rendered]
+    return np.concatenate([c.points[c.labels == 0] for c in clouds])
 
 
 def test_hidden_box_end_grows_into_space_no_camera_saw(views):

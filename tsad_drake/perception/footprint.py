@@ -32,6 +32,7 @@ import numpy as np
 
 from tsad_drake.geometry2d import convex_hull, footprint_polygon
 from tsad_drake.perception.free_space import FreeSpace
+from tsad_drake.perception.pointcloud import robust_top
 from tsad_drake.perception.pose import PlanarPose, PoseConfig, fit_circle, fit_rectangle_yaw
 
 
@@ -97,17 +98,13 @@ def robust_sigma(residuals: np.ndarray) -> float:
 
 def _side_points(points: np.ndarray, pose_config: PoseConfig) -> np.ndarray:
     """The points below the top cap (the top taken robustly: a few noisy points stand higher)."""
-    z = points[:, 2]
-    top = np.sort(z)[-min(len(z), 5)]
-    side = points[z < top - pose_config.cap_band]
+    side = points[points[:, 2] < robust_top(points) - pose_config.cap_band]
     return side if len(side) >= pose_config.min_side_points else points
 
 
 def _cap_points(points: np.ndarray, pose_config: PoseConfig) -> np.ndarray:
     """The top cap's points (within the cap band of the robust top), else all points."""
-    z = points[:, 2]
-    top = np.sort(z)[-min(len(z), 5)]
-    cap = points[np.abs(z - top) <= pose_config.cap_band]
+    cap = points[np.abs(points[:, 2] - robust_top(points)) <= pose_config.cap_band]
     return cap if len(cap) >= pose_config.min_side_points else points
 
 
@@ -179,9 +176,8 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
         hi = faces[2 * axis + 1] if faces[2 * axis + 1] is not None else cap_hi
         extents.append([lo, hi])
     if free is not None and config.grow_hidden:  # before the completion to plausible sides
-        top = float(np.sort(points[:, 2])[-min(len(points), 5)])
-        extents = _grow_hidden_ends(extents, axes, [f is not None for f in faces], top, free,
-                                    config)
+        extents = _grow_hidden_ends(extents, axes, [f is not None for f in faces],
+                                    robust_top(points), free, config)
     want = [max(hi - lo, pose_config.min_box_side) for lo, hi in extents]
     if max(want) < pose_config.square_below:
         want = [max(want)] * 2

@@ -27,15 +27,16 @@ class FreeSpace:
         """(N,) True where some view read a surface more than `margin` beyond the point."""
         points = np.atleast_2d(np.asarray(points, dtype=float))
         free = np.zeros(len(points), dtype=bool)
-        f, cx, cy = self.intrinsics[0, 0], self.intrinsics[0, 2], self.intrinsics[1, 2]
+        fx, fy = self.intrinsics[0, 0], self.intrinsics[1, 1]
+        cx, cy = self.intrinsics[0, 2], self.intrinsics[1, 2]
         for depth, X_SC in zip(self.depths, self.poses, strict=True):
             p_C = (points - X_SC[:3, 3]) @ X_SC[:3, :3]
             z = p_C[:, 2]
             ahead = z > 1e-6
             u = np.full(len(points), -1, dtype=int)
             v = np.full(len(points), -1, dtype=int)
-            u[ahead] = np.round(p_C[ahead, 0] / z[ahead] * f + cx).astype(int)
-            v[ahead] = np.round(p_C[ahead, 1] / z[ahead] * self.intrinsics[1, 1] + cy).astype(int)
+            u[ahead] = np.round(p_C[ahead, 0] / z[ahead] * fx + cx).astype(int)
+            v[ahead] = np.round(p_C[ahead, 1] / z[ahead] * fy + cy).astype(int)
             inside = ahead & (u >= 0) & (u < depth.shape[1]) & (v >= 0) & (v < depth.shape[0])
             reading = np.full(len(points), np.nan)
             reading[inside] = depth[v[inside], u[inside]]

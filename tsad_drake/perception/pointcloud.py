@@ -59,6 +59,12 @@ class CloudConfig:
     outlier_std_ratio: float = 2.0
 
 
+def robust_top(points: np.ndarray) -> float:
+    """Top height of a set of points, robust to a few stray points above it (the 5th highest)."""
+    z = np.sort(np.asarray(points)[:, 2])
+    return float(z[-min(len(z), 5)])
+
+
 def drop_far_side_of_edges(depth: np.ndarray, jump: float, slope_tolerance: float = 0.0
                            ) -> np.ndarray:
     """`depth` with inf where a reading lies more than `jump` (m) beyond a 4-neighbour and does

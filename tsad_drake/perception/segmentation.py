@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from tsad_drake.perception.pointcloud import BACKGROUND_LABEL, LabelledCloud
+from tsad_drake.perception.pointcloud import BACKGROUND_LABEL, LabelledCloud, robust_top
 
 SEGMENTATIONS = ("label", "cluster")
 
@@ -237,21 +237,14 @@ def _fits_one_object(points: np.ndarray, part: np.ndarray, config: ClusterConfig
     return length <= config.max_object_length and width <= config.max_object_width
 
 
-def _top(points: np.ndarray) -> float:
-    """Top height of a part, robust to a few stray points above it (the 5th highest)."""
-    z = np.sort(points[:, 2])
-    return float(z[-min(len(z), 5)])
-
-
 def join_tops(points: np.ndarray, parts: list[np.ndarray], config: ClusterConfig
               ) -> list[np.ndarray]:
     """Join parts that are one top seen in pieces: a flat part (z range under
     `min_cluster_height`: a top without its sides) or a capless fragment joins the whole part
-    (neither) whose top
-    matches its own within `top_join_height` and whose top cap comes within `top_join_gap` of
-    it in the floor plane, nearest first, when the two together fit one object; repeated until
-    nothing joins (a far row of a top joins once the rows between have). What nothing matches
-    stays as it is."""
+    (neither) whose top matches its own within `top_join_height` and whose top cap comes within
+    `top_join_gap` of it in the floor plane, nearest first, when the two together fit one
+    object; repeated until nothing joins (a far row of a top joins once the rows between have).
+    What nothing matches stays as it is."""
     from scipy.spatial import cKDTree
 
     parts = [p for p in parts if len(p)]
@@ -263,7 +256,7 @@ def join_tops(points: np.ndarray, parts: list[np.ndarray], config: ClusterConfig
     joined = True
     while joined:
         joined = False
-        tops = [_top(points[p]) for p in parts]
+        tops = [robust_top(points[p]) for p in parts]
         caps = [p[points[p, 2] >= t - config.cap_band] for p, t in zip(parts, tops, strict=True)]
         is_loose = [loose(p) for p in parts]
         for k in sorted((k for k in range(len(parts)) if is_loose[k]), key=lambda k: -len(parts[k])):
