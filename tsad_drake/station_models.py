@@ -137,7 +137,12 @@ def add_shelf(plant: MultibodyPlant, shelf: ShelfConfig, X_WS: RigidTransform
 
 
 def object_shape(obj: ObjectConfig):
-    """Drake shape of an upright object (its frame at the geometric centre)."""
+    """Drake shape of an upright object (its frame at the geometric centre).
+
+    A size or height <= 0 raises ValueError here: Drake's shapes abort the process on it."""
+    dims = obj.size[:1 if obj.shape == "cylinder" else 2] + [obj.height]
+    if min(dims) <= 0.0:
+        raise ValueError(f"object {obj.name!r} has a size or height <= 0 ({dims})")
     if obj.shape == "cylinder":
         return Cylinder(obj.size[0], obj.height)
     return Box(obj.size[0], obj.size[1], obj.height)

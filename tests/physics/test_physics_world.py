@@ -188,6 +188,21 @@ def test_lying_cylinder_footprint():
     assert (box.x, box.y) == pytest.approx((0.1, 0.0))
 
 
+def test_object_fallen_out_of_the_shelf_keeps_a_valid_shape():
+    """A box lying on the ground below the shelf floor (scenario 2 seed 26 of ROTS in physics
+    once aborted the process in Drake's Box() with height -0.054) gets a token slab, and a
+    non-positive size raises ValueError in Python instead of reaching Drake."""
+    from tsad_drake.physics.world import MIN_BELIEVED_SIZE
+    from tsad_drake.station_models import object_shape
+    obj = ObjectConfig(name="b", shape="box", size=[0.04, 0.06, 0.12])
+    X = RigidTransform(RotationMatrix.MakeXRotation(math.pi / 2), [-0.05, 0.0, -0.09])
+    box = lying_footprint(obj, body_pose(X))
+    assert box.height == pytest.approx(MIN_BELIEVED_SIZE)
+    assert object_shape(box).height() == pytest.approx(MIN_BELIEVED_SIZE)
+    with pytest.raises(ValueError, match="height <= 0"):
+        object_shape(ObjectConfig(name="b", shape="box", size=[0.04, 0.06, -0.054]))
+
+
 def test_config_validation():
     with pytest.raises(ValueError):
         PhysicsConfig(contact_model="soft")

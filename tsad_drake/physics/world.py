@@ -124,7 +124,9 @@ def lying_footprint(obj: ObjectConfig, pose: BodyPose) -> ObjectConfig:
     if best is None:  # standing after all: keep the upright footprint
         return dc.replace(obj, x=pose.x, y=pose.y, yaw=pose.yaw)
     _, yaw, su, sv, x, y = best
-    top = float(points[:, 2].max())
+    # an object that fell out of the shelf lies below its floor: it keeps a token slab there, so
+    # that every consumer can still name it (a Drake Box with a height <= 0 aborts the process)
+    top = max(float(points[:, 2].max()), MIN_BELIEVED_SIZE)
     return dc.replace(obj, shape="box", size=[float(su), float(sv), top], x=float(x), y=float(y),
                       yaw=float(yaw))
 
