@@ -125,5 +125,9 @@ def test_an_agreement_study_becomes_a_section_with_its_confusion_matrices(tmp_pa
     assert "## Physics against the 2-D rule" in page
     assert "| rule yes | 2 | 1 |" in page and "| rule yes | 0 | 1 |" not in page
     assert "| rule no | 1 | 2 |" in page  # falls: physics saw one the rule did not
+    assert "3 actions of TSAD (geometric model)" in page  # studies before --planner were TSAD's
+    from tsad_drake.bench.studies.physics_agreement import agreement_markdown
+    study["settings"]["planner"] = "rots"
+    assert agreement_markdown(study)[0].startswith("3 actions of ROTS (geometric model)")
     result = invoke(capsys, ["report", tmp_path / "agreement.json", "--out", tmp_path / "p2.md"])
     assert_clean(result, codes=(2,))  # a study alone has no table to report

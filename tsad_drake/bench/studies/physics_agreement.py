@@ -1,7 +1,8 @@
 """Agreement study: do the 2-D corridor rule and Drake physics agree on what an action did?
 
-Per scenario and seed: TSAD plans a closed-loop episode in the geometric world (ray-cast
-observer, `--feasibility` model, every action motion-checked as `--motion` does); its executed
+Per scenario and seed: `--planner` (TSAD by default; ROTS, ROTS*, GP3) plans a closed-loop
+episode in the geometric world (ray-cast observer, `--feasibility` model, every action
+motion-checked as `--motion` does); its executed
 actions (true object names) are then executed
 again, in order and open loop, in a fresh GeometricWorld and in a fresh PhysicsWorld, and each
 action's verdicts are compared: the object moved or not, which objects fell, which were disturbed
@@ -39,15 +40,19 @@ from tsad_drake.execution.world import ActionOutcome, GeometricWorld
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import Scenario
 
+#: planners whose actions the study compares, and their names in the text
+PLANNER_NAMES = {"tsad": "TSAD", "rots": "ROTS", "rots-star": "ROTS*", "gp3": "GP3"}
+
 # the episode machinery (pipeline, scene generator) is imported where episodes run: `tsad report`
 # reads study files through this module and needs only its summaries
 
 
-def planned_actions(scenario: Scenario, seed: int, feasibility: str) -> list[Action]:
-    """The actions TSAD executes in a closed-loop geometric episode (true object names)."""
+def planned_actions(scenario: Scenario, seed: int, feasibility: str, planner: str = "tsad"
+                    ) -> list[Action]:
+    """The actions `planner` executes in a closed-loop geometric episode (true object names)."""
     from tsad_drake.pipeline import EpisodeSettings, run_settings
 
-    row = run_settings(scenario, seed, EpisodeSettings(planner="tsad", feasibility=feasibility,
+    row = run_settings(scenario, seed, EpisodeSettings(planner=planner, feasibility=feasibility,
                                                        motion=True))
     return [Action(a["true_object"], math.radians(a["theta_pick_deg"]), a["place_xy"][0],
                    a["place_xy"][1], math.radians(a["theta_place_deg"]))
@@ -149,7 +154,9 @@ def agreement_markdown(document: dict) -> list[str]:
     """The study as markdown lines: settings, the two confusion matrices, the disagreement
     classes and the simulation's speed."""
     s, settings = document["summary"], document["settings"]
-    lines = [f"{s['actions']} actions of TSAD ({settings.get('feasibility', 'geometric')} model) "
+    planner = PLANNER_NAMES.get(settings.get("planner", "tsad"), settings.get("planner"))
+    model = settings.get("feasibility", "geometric")
+    lines = [f"{s['actions']} actions of {planner} ({model} model) "
              f"in {s['episodes']} episodes (scenarios {', '.join(map(str, settings['scenarios']))}"
              f", seeds {', '.join(map(str, settings['seeds']))}; physics aimed at the "
              f"{settings.get('aim', 'true')} poses), executed by the 2-D rule and by physics:", ""]
@@ -183,7 +190,10 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenarios", nargs="+", default=["1", "2", "3"])
     p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    p.add_argument("--feasibility", default="geometric", help="TSAD's model (default geometric)")
+    p.add_argument("--planner", default="tsad", choices=sorted(PLANNER_NAMES),
+                   help="whose executed actions are compared (default tsad)")
+    p.add_argument("--feasibility", default="geometric",
+                   help="the planner's feasibility model (default geometric)")
     p.add_argument("--aim", default="true", choices=("true", "perceived"),
                    help="the poses the physics world plans its motions on (default true)")
     p.add_argument("--out", default="results/physics_agreement.json")
@@ -196,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
         for seed in args.seeds:
             scenario = generate_scenario(name, seed)
             t0 = time.perf_counter()
-            actions = planned_actions(scenario, seed, args.feasibility)
+            actions = planned_actions(scenario, seed, args.feasibility, args.planner)
             records = compare_episode(scenario, actions, args.aim)
             episodes.append({"scenario": name, "seed": seed, "actions": records,
                              "wall_s": time.perf_counter() - t0})
