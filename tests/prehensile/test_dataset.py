@@ -99,9 +99,31 @@ def test_splits_are_by_scene_and_hold_every_scenario_type():
 @pytest.mark.slow
 def test_drake_rendered_scene_gives_labelled_samples():
     pytest.importorskip("tsad_drake.station")
-    samples = pdata.scene_samples(SEED, observer="drake")
+    samples = pdata.scene_samples(SEED, pdata.Sensing(observer="drake"))
     assert samples is not None and len(samples) > 10
     assert samples.pickable.any() and (~samples.pickable).any()
+
+
+def test_realistic_cluster_sensing_gives_its_own_shards_labelled_by_the_oracle(tmp_path):
+    """Data observed as a robot observes (realistic depth, cluster segmentation): the noise is
+    drawn from the scene seed (the same shard twice), the shard name says how it was observed,
+    and every cluster is labelled with the oracle's answer for the true object it stands for."""
+    sensing = pdata.Sensing(sensor="realistic", segmentation="cluster")
+    pdata.generate_dataset(tmp_path, scenes=1, seed_start=SEED, sensing=sensing, progress=False)
+    (shard,) = list(tmp_path.glob("shard_*.npz"))
+    assert shard.name.startswith("shard_raycast-realistic-cluster_")
+    data = pdata.load_dataset(tmp_path)
+    again = pdata.scene_samples(SEED, sensing)
+    assert np.array_equal(again.xy, data.xy) and np.array_equal(again.pickable, data.pickable)
+    kind, state, oracle = pdata.scene_states(SEED, sensing, relocations=0, reobserve=False)[0]
+    assert all(o.name.startswith("cluster") for o in state.objects)
+    ideal = pdata.scene_states(SEED, relocations=0, reobserve=False)[0][1]
+    assert not np.array_equal(np.concatenate([o.points for o in state.objects]),
+                              np.concatenate([o.points for o in ideal.objects]))
+    labels = pdata.oracle_labels(oracle, state)
+    target = next(i for i, o in enumerate(state.objects) if o.name == state.target)
+    assert oracle.true_object(state.objects[target]).name == oracle.scenario.target
+    assert labels.pickable.shape == (len(state.objects), len(oracle.workspace.approach_angles))
 
 
 def test_encoding_keeps_every_object_that_reaches_into_the_corridor():

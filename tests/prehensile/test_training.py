@@ -101,3 +101,23 @@ def test_shipped_weights_beat_a_majority_classifier_on_fresh_scenes():
     assert overall["pickable"]["accuracy"] > overall["majority_pickable_accuracy"]
     assert overall["pickable"]["accuracy"] >= 0.93
     assert overall["pickable"]["recall"] > 0.5
+
+
+def test_fine_tuning_starts_from_the_given_weights(tmp_path):
+    """`train(init=...)` starts from those weights: with a learning rate of 0 the kept checkpoint
+    is the initial network itself, and its meta names the weights it started from."""
+    from tsad_drake.prehensile.checkpoint import weights_digest
+    from tsad_drake.prehensile.training import train
+
+    data = tmp_path / "data"
+    for seed in (3, 35):  # scenario "real" in the train split and in the validation split
+        pdata.generate_dataset(data, scenes=1, seed_start=seed, progress=False)
+    out = tmp_path / "tuned.pt"
+    train(data, out, epochs=1, lr=0.0, threads=1, progress=False, calibrate_scenes=0,
+          init=DEFAULT_WEIGHTS)
+    tuned, meta = load_checkpoint(out)
+    shipped, _ = load_checkpoint(DEFAULT_WEIGHTS)
+    for a, b in zip(shipped.state_dict().values(), tuned.state_dict().values(), strict=True):
+        assert torch.equal(a, b)
+    assert meta["init"] == weights_digest(DEFAULT_WEIGHTS)
+    assert meta["sensing"] == {"observer": "raycast", "sensor": "ideal", "segmentation": "label"}

@@ -106,12 +106,19 @@ def thread_count(text: str) -> int:
     return value
 
 
-def add_sensor_arg(p: argparse.ArgumentParser) -> None:
+def add_sensor_arg(p: argparse.ArgumentParser, noise_from: str = "--seed") -> None:
     p.add_argument("--sensor", choices=("ideal", "realistic"), default="ideal",
                    help="depth sensor model: ideal (the exact rendered depth) or realistic (a "
                         "structured-light camera: sigma(z) = 0.5 mm + 5 mm/m^2 z^2, 1 mm "
                         "quantisation, dropout and flying pixels at depth edges; "
-                        "perception/sensor.py); the noise is drawn from --seed (default ideal)")
+                        f"perception/sensor.py); the noise is drawn from {noise_from} "
+                        "(default ideal)")
+
+
+def add_segmentation_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
+                   help="label: the renderer's label image (stands in for instance "
+                        "segmentation); cluster: the fused point cloud alone (default label)")
 
 
 def add_threads_arg(p: argparse.ArgumentParser, default: int = 1) -> None:

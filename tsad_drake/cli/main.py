@@ -13,6 +13,7 @@ import sys
 from tsad_drake.cli.common import (
     Parser,
     add_scenario_args,
+    add_segmentation_arg,
     add_sensor_arg,
     check_scenario_args,
     resolve_scenario,
@@ -79,9 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
                            "scene.yaml into --out."))
     add_scenario_args(p)
     p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
-                   help="label: the renderer's label image (stands in for instance segmentation); "
-                        "cluster: DBSCAN on the fused point cloud alone (default label)")
+    add_segmentation_arg(p)
     add_sensor_arg(p)
     from tsad_drake.cli.net import add_net_parsers
     from tsad_drake.cli.plan import add_plan_parsers

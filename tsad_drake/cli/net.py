@@ -8,15 +8,31 @@ its function (args -> exit status). Bad input raises `tsad_drake.errors.UsageErr
 from __future__ import annotations
 
 import argparse
+import dataclasses as dc
 import json
 from pathlib import Path
 
-from tsad_drake.cli.common import add_threads_arg, check_float, check_int, check_seeds
+from tsad_drake.cli.common import (
+    add_segmentation_arg,
+    add_sensor_arg,
+    add_threads_arg,
+    check_float,
+    check_int,
+    check_seeds,
+)
 from tsad_drake.errors import UsageError
 from tsad_drake.outputs import atomic_write_text, prepare_out_dir, prepare_out_file
+from tsad_drake.prehensile.dataset import Sensing
 
 OBSERVERS = ("raycast", "drake")
 MAX_SCENES = 100_000  #: largest --scenes
+
+
+def add_calibration_sensing_args(p: argparse.ArgumentParser) -> None:
+    """--sensor and --segmentation of the calibration scenes (ray caster; use the data's)."""
+    group = p.add_argument_group("calibration scenes (observe them as the training data was)")
+    add_sensor_arg(group, noise_from="the scene seed")
+    add_segmentation_arg(group)
 
 
 def add_net_parsers(sub) -> None:
@@ -35,6 +51,8 @@ def add_net_parsers(sub) -> None:
     p.add_argument("--observer", choices=OBSERVERS, default="raycast",
                    help="raycast: the NumPy ray caster (fast, same camera and pipeline; default); "
                         "drake: render depth with the Drake station (VTK)")
+    add_sensor_arg(p, noise_from="the scene seed")
+    add_segmentation_arg(p)
     p.add_argument("--shard-size", type=int, default=20, help="scenes per shard file (default 20)")
     add_threads_arg(p)
 
@@ -53,6 +71,10 @@ def add_net_parsers(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--max-minutes", type=float, default=30.0,
                    help="wall-clock limit in minutes (default 30)")
+    p.add_argument("--init", default=None,
+                   help="weights file to start from (fine-tuning, e.g. the shipped weights on "
+                        "data observed with --sensor realistic); default: random initialisation")
+    add_calibration_sensing_args(p)
     add_threads_arg(p, default=2)
 
     p = sub.add_parser("net-calibrate", help="re-tune a weights file's decision thresholds",
@@ -65,6 +87,7 @@ def add_net_parsers(sub) -> None:
                            "`tsad train` ends with the same step."))
     p.add_argument("--weights", required=True, help="weights file to update in place (.pt)")
     p.add_argument("--scenes", type=int, default=16, help="calibration scenes (default 16)")
+    add_calibration_sensing_args(p)
     add_threads_arg(p)
 
     p = sub.add_parser("net-eval", help="score the network against the oracle on fresh scenes",
@@ -79,8 +102,15 @@ def add_net_parsers(sub) -> None:
                    help="first scene seed (default 100000; must not overlap the training seeds)")
     p.add_argument("--observer", choices=OBSERVERS, default="raycast",
                    help="raycast (default) or drake rendering")
+    add_sensor_arg(p, noise_from="the scene seed")
+    add_segmentation_arg(p)
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     add_threads_arg(p)
+
+
+def sensing_of(args: argparse.Namespace) -> Sensing:
+    """The `Sensing` that --observer, --sensor and --segmentation name."""
+    return Sensing(args.observer, args.sensor, args.segmentation)
 
 
 def cmd_dataset(args: argparse.Namespace) -> int:
@@ -92,7 +122,7 @@ def cmd_dataset(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out)
     if dataset_shards(out.root):
         load_dataset(out.root)  # shards of an earlier run are resumed: one bad shard is one line
-    summary = generate_dataset(out.root, args.scenes, args.seed_start, args.observer,
+    summary = generate_dataset(out.root, args.scenes, args.seed_start, sensing_of(args),
                                args.shard_size)
     print(json.dumps(summary))
     return 0
@@ -112,9 +142,16 @@ def cmd_train(args: argparse.Namespace) -> int:
         raise UsageError(f"--data {data} is not a directory (generate one with `tsad dataset`)")
     out = prepare_out_file(args.out)
     samples = load_dataset(data)
+    init = None
+    if args.init is not None:
+        from tsad_drake.prehensile.checkpoint import load_checkpoint
+
+        load_checkpoint(args.init)  # one clear line on a missing or bad file
+        init = Path(args.init)
     try:
         summary = train(data, out, args.epochs, args.batch, args.lr, args.seed, args.max_minutes,
-                        args.threads, samples=samples)
+                        args.threads, samples=samples, init=init,
+                        sensing=Sensing("raycast", args.sensor, args.segmentation))
     except ValueError as err:
         raise UsageError(str(err)) from None
     print(json.dumps({k: v for k, v in summary.items() if k != "history"}))
@@ -128,7 +165,9 @@ def cmd_net_calibrate(args: argparse.Namespace) -> int:
     check_int("--scenes", args.scenes, 1, 10_000)
     load_checkpoint(args.weights)  # one clear line on a missing or bad file
     prepare_out_file(args.weights, option="--weights")  # updated in place: writable?
-    print(json.dumps(calibrate_thresholds(Path(args.weights), args.scenes)))
+    print(json.dumps(calibrate_thresholds(Path(args.weights), args.scenes,
+                                          sensing=Sensing("raycast", args.sensor,
+                                                          args.segmentation))))
     return 0
 
 
@@ -148,7 +187,8 @@ def cmd_net_eval(args: argparse.Namespace) -> int:
                              f"{seeds[0]}..{seeds[1]} of these weights: pick another --seed-start")
     out = prepare_out_file(args.out) if args.out else None
     result = evaluate_scenes(lambda ws: NetFeasibility(ws, args.weights), args.scenes,
-                             args.seed_start, args.observer)
+                             args.seed_start, sensing_of(args))
+    result["sensing"] = dc.asdict(sensing_of(args))
     result["weights"] = str(args.weights or "shipped")
     result["seeds"] = [args.seed_start, args.seed_start + args.scenes - 1]
     result["threads"] = args.threads

@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from tsad_drake.cli.common import (
+    add_segmentation_arg,
     add_sensor_arg,
     add_threads_arg,
     check_int,
@@ -46,9 +47,7 @@ def _add_selector_args(p: argparse.ArgumentParser) -> None:
                         "or optimal (exhaustive search on the oracle model, budgeted: the floor "
                         "for action counts)")
     add_sensor_arg(p)
-    p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
-                   help="label: the renderer's label image (stands in for instance "
-                        "segmentation); cluster: the fused point cloud alone (default label)")
+    add_segmentation_arg(p)
     p.add_argument("--variant", default="full", choices=VARIANTS,
                    help="TSAD variant: full (every option beyond the paper) or paper (the "
                         "paper's algorithm exactly; docs/design.md lists each extra); tsad only "

@@ -29,6 +29,28 @@ SCENARIO_TYPES = ("1", "2", "3", "real")
 SPLITS = ("train", "val", "test")
 
 
+@dc.dataclass(frozen=True)
+class Sensing:
+    """How training and evaluation scenes are observed: the renderer, the depth sensor model
+    (`perception.sensor` preset; its noise is drawn per scene seed and state) and the
+    segmentation. The default is the shipped weights' data: ray caster, ideal, labels."""
+
+    observer: str = "raycast"  #: raycast (NumPy ray caster) | drake (the Drake station)
+    sensor: str = "ideal"  #: ideal | realistic
+    segmentation: str = "label"  #: label | cluster
+
+    @property
+    def tag(self) -> str:
+        """Name part of shard files: the observer alone for the default sensing."""
+        if (self.sensor, self.segmentation) == ("ideal", "label"):
+            return self.observer
+        return f"{self.observer}-{self.sensor}-{self.segmentation}"
+
+
+#: the shipped weights' data: ray caster, ideal sensor, label segmentation
+DEFAULT_SENSING = Sensing()
+
+
 
 
 def split_of(seed: int) -> str:
@@ -106,19 +128,23 @@ def true_scene_after(scenario, oracle, state: PlanningState):
     return dc.replace(scenario, objects=objects)
 
 
-def observe_state(scenario, observer: str) -> PlanningState:
-    """Observe `scenario` ("raycast": NumPy ray caster; "drake": the Drake station) -> state."""
-    from tsad_drake.perception.observe import observe, observe_raycast
+def observe_state(scenario, sensing: Sensing, noise_seed: list[int] | int = 0) -> PlanningState:
+    """Observe `scenario` as `sensing` says (perception configured for its sensor) -> state."""
+    from tsad_drake.perception.observe import observe, observe_raycast, perception_config
+    from tsad_drake.perception.sensor import sensor_config
     from tsad_drake.planning.state import state_from_perception
 
-    if observer == "drake":
+    sensor = sensor_config(sensing.sensor)
+    kwargs = dict(segmentation=sensing.segmentation, config=perception_config(sensor),
+                  sensor=sensor, noise_seed=noise_seed)
+    if sensing.observer == "drake":
         from tsad_drake.station import MakeStation
 
-        return state_from_perception(observe(MakeStation(scenario)).scene)
-    return state_from_perception(observe_raycast(scenario).scene)
+        return state_from_perception(observe(MakeStation(scenario), **kwargs).scene)
+    return state_from_perception(observe_raycast(scenario, **kwargs).scene)
 
 
-def scene_states(seed: int, observer: str = "raycast", relocations: int = 2,
+def scene_states(seed: int, sensing: Sensing = DEFAULT_SENSING, relocations: int = 2,
                  reobserve: bool = True) -> list[tuple[str, PlanningState, object]]:
     """[(kind, state, oracle)] for scene `seed`: observed, relocated, re-observed."""
     from tsad_drake.planning.feasibility import OracleFeasibility
@@ -130,7 +156,7 @@ def scene_states(seed: int, observer: str = "raycast", relocations: int = 2,
     scenario = generate_scenario(name, seed, config=config)
     workspace = make_workspace(scenario)
     oracle = OracleFeasibility(scenario, workspace)
-    state = observe_state(scenario, observer)
+    state = observe_state(scenario, sensing, [seed, 0])
     out = [("observed", state, oracle)]
     rng = np.random.default_rng([seed, 77])
     for _ in range(relocations):
@@ -141,7 +167,7 @@ def scene_states(seed: int, observer: str = "raycast", relocations: int = 2,
         out.append(("relocated", state, oracle))
     if reobserve and len(out) > 1:
         moved = true_scene_after(scenario, oracle, state)
-        again = observe_state(moved, observer)
+        again = observe_state(moved, sensing, [seed, 1])
         out.append(("reobserved", again, OracleFeasibility(moved, workspace)))
     return out
 
@@ -244,19 +270,20 @@ def state_samples(state: PlanningState, oracle, seed: int, kind: str, balanced: 
                    np.full(n, kind), thetas[idx[1]].astype(np.float32))
 
 
-def scene_samples(seed: int, observer: str = "raycast", balanced: bool = True) -> Samples | None:
+def scene_samples(seed: int, sensing: Sensing = DEFAULT_SENSING, balanced: bool = True
+                  ) -> Samples | None:
     rng = np.random.default_rng([seed, 99])
     parts = [state_samples(st, orc, seed, kind, balanced, rng)
-             for kind, st, orc in scene_states(seed, observer)]
+             for kind, st, orc in scene_states(seed, sensing)]
     parts = [p for p in parts if p is not None]
     return Samples.concat(parts) if parts else None
 
 
-def shard_name(first_seed: int, count: int, observer: str) -> str:
-    return f"shard_{observer}_{first_seed:07d}_{count:04d}.npz"
+def shard_name(first_seed: int, count: int, sensing: Sensing) -> str:
+    return f"shard_{sensing.tag}_{first_seed:07d}_{count:04d}.npz"
 
 
-def generate_dataset(out: Path, scenes: int, seed_start: int, observer: str = "raycast",
+def generate_dataset(out: Path, scenes: int, seed_start: int, sensing: Sensing = DEFAULT_SENSING,
                      shard_size: int = 20, progress: bool = True) -> dict:
     """Write shards of `shard_size` scenes to `out`; existing shards are kept (resumable).
 
@@ -272,9 +299,9 @@ def generate_dataset(out: Path, scenes: int, seed_start: int, observer: str = "r
                disable=not show_progress(progress))
     for first in range(seed_start, seed_start + scenes, shard_size):
         count = min(shard_size, seed_start + scenes - first)
-        path = out / shard_name(first, count, observer)
+        path = out / shard_name(first, count, sensing)
         if not path.exists():
-            parts = [p for p in (scene_samples(s, observer) for s in range(first, first + count))
+            parts = [p for p in (scene_samples(s, sensing) for s in range(first, first + count))
                      if p is not None]
             if parts:
                 Samples.concat(parts).save(path)

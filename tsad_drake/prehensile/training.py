@@ -10,6 +10,7 @@ classifier's pickable accuracy is the trivial baseline.
 
 from __future__ import annotations
 
+import dataclasses as dc
 import math
 import time
 from pathlib import Path
@@ -20,7 +21,7 @@ from torch import nn
 
 from tsad_drake.prehensile import dataset as pdata
 from tsad_drake.prehensile import encoding
-from tsad_drake.prehensile.checkpoint import load_checkpoint, save_checkpoint
+from tsad_drake.prehensile.checkpoint import load_checkpoint, save_checkpoint, weights_digest
 from tsad_drake.prehensile.network import (
     NetConfig,
     PrehensileNet,
@@ -144,7 +145,8 @@ def _epoch_entry(epoch: int, running: list[float], val: dict, start: float, prog
 def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: float = 2e-3,
           seed: int = 0, max_minutes: float = 30.0, threads: int = 2,
           progress: bool = True, max_val_samples: int = 3000, calibrate_scenes: int = 16,
-          samples: pdata.Samples | None = None) -> dict:
+          samples: pdata.Samples | None = None, init: Path | None = None,
+          sensing: pdata.Sensing = pdata.DEFAULT_SENSING) -> dict:
     """Train on the shards in `data_dir`, validate each epoch, keep the best checkpoint at `out`.
 
     Stops after `epochs` or once `max_minutes` of wall clock have passed (checked per step); the
@@ -152,7 +154,9 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
     runs out first. Validation uses a fixed subset of at most `max_val_samples` validation queries.
     Finally the decision thresholds are calibrated on `calibrate_scenes` fresh scenes
     (`calibrate_thresholds`). `samples`: the dataset when the caller has loaded (and so checked)
-    it already. Returns a summary.
+    it already. `init`: a weights file to start from (fine-tuning) instead of a random
+    initialisation. `sensing`: how the data was observed, so the calibration scenes are observed
+    alike. Returns a summary.
     """
     from tqdm import tqdm
 
@@ -165,7 +169,11 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
     _, _, _, labels, present, _ = to_tensors(data, train_rows[:4000])
     positive = float(labels[present].mean()) if bool(present.any()) else 0.5
     pos_weight = float(np.clip((1 - positive) / max(positive, 1e-6), 1.0, 10.0) ** 0.5)
-    net = PrehensileNet(NetConfig(num_points=encoding.NUM_POINTS, in_features=encoding.NUM_FEATURES))
+    if init is not None:
+        net = load_checkpoint(init)[0]
+    else:
+        net = PrehensileNet(NetConfig(num_points=encoding.NUM_POINTS,
+                                      in_features=encoding.NUM_FEATURES))
     opt = torch.optim.AdamW(net.parameters(), lr=lr, weight_decay=1e-4)
     steps_per_epoch = math.ceil(len(train_rows) / batch)
     total_steps = epochs * steps_per_epoch
@@ -202,11 +210,13 @@ def train(data_dir: Path, out: Path, epochs: int = 30, batch: int = 32, lr: floa
                 "scenes": int(len(np.unique(data.scene))),
                 "dataset": pdata.dataset_fingerprint(data_dir), "pos_weight": pos_weight,
                 "seed_range": [int(data.scene.min()), int(data.scene.max())],
+                "init": None if init is None else weights_digest(init),
+                "sensing": dc.asdict(sensing),
                 "minutes": round((time.perf_counter() - start) / 60, 2)})
         if timed_out:
             break
     if calibrate_scenes > 0:
-        calibrate_thresholds(out, calibrate_scenes, progress=progress)
+        calibrate_thresholds(out, calibrate_scenes, progress=progress, sensing=sensing)
     return {"best_val_score": best, "epochs_run": len(history), "history": history,
             "minutes": round((time.perf_counter() - start) / 60, 2), "weights": str(out)}
 
@@ -222,8 +232,8 @@ def evaluate_rows(net: PrehensileNet, data: pdata.Samples, rows: np.ndarray) -> 
 
 
 # -- evaluation on fresh scenes (`tsad net-eval`) ---------------------------------------------
-def evaluate_scenes(model_factory, scenes: int, seed_start: int, observer: str = "raycast",
-                    progress: bool = True) -> dict:
+def evaluate_scenes(model_factory, scenes: int, seed_start: int,
+                    sensing: pdata.Sensing = pdata.DEFAULT_SENSING, progress: bool = True) -> dict:
     """Score `model_factory(workspace)` (a FeasibilityModel) against the oracle on scenes
     seed_start..seed_start+scenes-1 (type SCENARIO_TYPES[seed % 4]); per type and "all"."""
     from tqdm import tqdm
@@ -233,7 +243,7 @@ def evaluate_scenes(model_factory, scenes: int, seed_start: int, observer: str =
     evaluations, seconds = 0, 0.0
     for seed in tqdm(range(seed_start, seed_start + scenes), desc="net-eval scenes", unit="scene",
                      disable=not show_progress(progress)):
-        for _, state, oracle in pdata.scene_states(seed, observer):
+        for _, state, oracle in pdata.scene_states(seed, sensing):
             ws = oracle.workspace
             key = (ws.depth, ws.width)
             model = models.get(key)
@@ -289,12 +299,14 @@ CALIBRATION_SEED_START = 200_000  #: fresh scenes for threshold calibration (not
 
 
 def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALIBRATION_SEED_START,
-                         progress: bool = True) -> dict:
+                         progress: bool = True, sensing: pdata.Sensing = pdata.DEFAULT_SENSING
+                         ) -> dict:
     """Pick the reach logit threshold that maximises reach accuracy and then the block
     probability threshold that maximises pickable accuracy on fresh scenes (every (object,
     angle): the planners' distribution, not the balanced training one; ties go to the lower
     reach threshold), then the set threshold that makes R_{theta,s} exact most often
-    (`prehensile.feasibility.blocker_set`), and store them in the checkpoint's meta."""
+    (`prehensile.feasibility.blocker_set`), and store them in the checkpoint's meta. The scenes
+    are observed as `sensing` says (the sensing the network will plan on)."""
     from tqdm import tqdm
 
     net, meta = load_checkpoint(weights)
@@ -302,7 +314,7 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
     pair_probs, true_sets = [], []  # per query: block probabilities and the oracle's R
     for seed in tqdm(range(seed_start, seed_start + scenes), desc="calibration scenes",
                      disable=not show_progress(progress)):
-        for _, state, oracle in pdata.scene_states(seed):
+        for _, state, oracle in pdata.scene_states(seed, sensing):
             thetas = oracle.workspace.approach_angles
             labels = pdata.oracle_labels(oracle, state)
             cloud = encoding.state_cloud(state, oracle.workspace)
@@ -349,6 +361,7 @@ def calibrate_thresholds(weights: Path, scenes: int = 16, seed_start: int = CALI
     exact_single = exactness(best[2])
     meta.update(reach_threshold=best[1], block_threshold=best[2], set_threshold=best_set[1],
                 calibration={"seeds": [seed_start, seed_start + scenes - 1],
+                             "sensing": dc.asdict(sensing),
                              "queries": int(len(true_pick)), "accuracy": round(best[0], 4),
                              "reach_accuracy": round(reach_acc, 4),
                              "accuracy_default_thresholds": round(default, 4),
