@@ -284,7 +284,7 @@ def format_table(result: dict) -> str:
             f"{'majority':>8} {'collide acc':>11} {'R exact':>7} {'reach acc':>9}")
     lines = [head, "-" * len(head)]
     for name, m in result.items():
-        if not isinstance(m, dict):
+        if not isinstance(m, dict) or "pickable" not in m:
             continue
         p = m["pickable"]
         lines.append(f"{name:<9} {p['n']:>7d} {p['accuracy']:>8.4f} {p['precision']:>6.3f} "
