@@ -1,6 +1,8 @@
 """Perception under the realistic sensor: touching objects split, footprints repeat within their
 stated uncertainty, pickability survives the noise, and a plan made under it works in the world."""
 
+import dataclasses as dc
+
 import numpy as np
 import pytest
 
@@ -103,3 +105,28 @@ def test_a_plan_made_under_realistic_sensing_succeeds_in_the_world():
 def test_bad_sensor_name_in_settings_is_a_value_error():
     with pytest.raises(ValueError, match="unknown sensor"):
         EpisodeSettings(sensor="lidar").sensor_config()
+
+
+
+def test_a_box_seen_on_one_face_is_a_box_not_a_wide_cylinder():
+    """A flat face can fit a circle of the largest plausible radius as well as a rectangle: on
+    scenario 2 seed 2 under realistic sensing (cluster segmentation with DBSCAN min_points 6) the
+    45 mm target box came out as a 60 mm-radius cylinder, too wide for the gripper, and the episode
+    failed at once. A circle held at that bound is a face."""
+    from tsad_drake.perception.footprint import fit_cylinder, fit_footprint
+    from tsad_drake.perception.pose import estimate_planar_pose
+
+    sensor = sensor_config("realistic")
+    config = perception_config(sensor)
+    config.cluster = dc.replace(config.cluster, min_points=6, top_join_gap=0.05)
+    scenario = generate_scenario("2", 2)
+    observation = observe_raycast(scenario, segmentation="cluster", sensor=sensor, config=config,
+                                  noise_seed=2)
+    points = next(s for s in observation.segments if s.is_target).points
+    _, radius, _ = fit_cylinder(points, config.pose, config.footprint)
+    assert radius == pytest.approx(config.pose.max_radius)  # the case the rule is for
+    fit = fit_footprint(points, estimate_planar_pose(points, config.pose), config.pose,
+                        config.footprint)
+    target = scenario.object(scenario.target)
+    assert fit.shape == "box"
+    assert max(fit.size) == pytest.approx(target.size[0], abs=0.008)

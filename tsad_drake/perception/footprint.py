@@ -264,7 +264,10 @@ def fit_footprint(points: np.ndarray, pose: PlanarPose, pose_config: PoseConfig,
     yaw, _ = fit_rectangle_yaw(_side_points(points, pose_config)[:, :2],
                                pose_config.yaw_step_deg)
     box_centre, box_size, box_sigma = fit_box(points, yaw, pose_config, config, free)
-    if circle_sigma < config.circle_ratio * box_sigma:
+    # a circle held at the largest plausible radius is a flat face (a box seen from one side
+    # fits such a wide arc as well as a rectangle), never a cylinder
+    flat = radius >= pose_config.max_radius - 1e-6
+    if circle_sigma < config.circle_ratio * box_sigma and not flat:
         shape, size, sigma, yaw = "cylinder", (radius,), circle_sigma, 0.0
     else:
         shape, size, sigma, centre = "box", box_size, box_sigma, box_centre
