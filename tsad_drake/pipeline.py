@@ -27,17 +27,20 @@ from tsad_drake.station import StationConfig
 FEASIBILITY_NAMES = ("net", "geometric", "oracle")
 
 
-def make_feasibility(name: str, scenario: Scenario, workspace: Workspace) -> FeasibilityModel:
+def make_feasibility(name: str, scenario: Scenario, workspace: Workspace, sensor: str = "ideal"
+                     ) -> FeasibilityModel:
     """The feasibility model called `name`: "oracle" (true shapes from `scenario`), "geometric"
-    (perceived point clouds) or "net" (the shipped prehensile network; WeightsError if bad)."""
+    (perceived point clouds) or "net" (the prehensile network shipped for observations of
+    `sensor`, `checkpoint.shipped_weights`; WeightsError if bad)."""
     if name == "oracle":
         return OracleFeasibility(scenario, workspace)
     if name == "geometric":
         return GeometricFeasibility(workspace)
     if name == "net":
+        from tsad_drake.prehensile.checkpoint import shipped_weights
         from tsad_drake.prehensile.feasibility import NetFeasibility
 
-        return NetFeasibility(workspace)
+        return NetFeasibility(workspace, shipped_weights(sensor))
     raise ValueError(f"unknown feasibility model {name!r}: use one of {', '.join(FEASIBILITY_NAMES)}")
 
 
@@ -201,7 +204,7 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
             return ok, ("" if ok else ("pick: " if is_pick_failure(why) else "place: ") + why)
 
     def model(truth: Scenario, workspace: Workspace) -> FeasibilityModel:
-        return make_feasibility(settings.feasibility, truth, workspace)
+        return make_feasibility(settings.feasibility, truth, workspace, settings.sensor)
 
     result = run_episode(world, get_planner(settings.planner), model, config.planner, seed,
                          closed_loop=settings.closed_loop,

@@ -103,6 +103,35 @@ def test_shipped_weights_beat_a_majority_classifier_on_fresh_scenes():
     assert overall["pickable"]["recall"] > 0.5
 
 
+def test_realistic_weights_hold_on_fresh_scenes_under_realistic_sensing():
+    """The weights shipped for `--sensor realistic` (fine-tuned on realistic depth with cluster
+    segmentation) answer that sensing's fresh scenes better than a majority classifier, and they
+    are the ones the pipeline picks for it."""
+    from tsad_drake.pipeline import make_feasibility
+    from tsad_drake.planning.state import make_workspace
+    from tsad_drake.prehensile.checkpoint import REALISTIC_WEIGHTS, shipped_weights
+    from tsad_drake.prehensile.feasibility import NetFeasibility
+    from tsad_drake.scenes import generate_scenario
+
+    assert shipped_weights("realistic") == REALISTIC_WEIGHTS
+    assert shipped_weights("ideal") == DEFAULT_WEIGHTS
+    _, meta = load_checkpoint(REALISTIC_WEIGHTS)
+    scenario = generate_scenario("real", 0)
+    model = make_feasibility("net", scenario, make_workspace(scenario), "realistic")
+    assert model.meta == meta and model.meta != load_checkpoint()[1]
+    sensing = pdata.Sensing(sensor="realistic", segmentation="cluster")
+    assert meta["sensing"] == {"observer": "raycast", "sensor": "realistic",
+                               "segmentation": "cluster"}
+    seed_start = 900_000  # never used for training
+    assert meta["seed_range"][1] < seed_start
+    result = evaluate_scenes(lambda ws: NetFeasibility(ws, REALISTIC_WEIGHTS), scenes=4,
+                             seed_start=seed_start, sensing=sensing, progress=False)
+    overall = result["all"]
+    assert overall["pickable"]["accuracy"] > overall["majority_pickable_accuracy"]
+    assert overall["pickable"]["accuracy"] >= 0.93
+    assert overall["pickable"]["recall"] > 0.5
+
+
 def test_fine_tuning_starts_from_the_given_weights(tmp_path):
     """`train(init=...)` starts from those weights: with a learning rate of 0 the kept checkpoint
     is the initial network itself, and its meta names the weights it started from."""

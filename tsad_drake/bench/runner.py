@@ -36,7 +36,7 @@ from tsad_drake.bench.metrics import summarise
 from tsad_drake.errors import InputFileError, RunFailure, UsageError
 from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
-from tsad_drake.prehensile.checkpoint import weights_digest
+from tsad_drake.prehensile.checkpoint import shipped_weights, weights_digest
 from tsad_drake.run_config import RunConfig, config_digest, run_config_record
 from tsad_drake.runtime import THREAD_ENV_VARS, VERBOSITY_ENV, debug, pin_threads, verbosity
 from tsad_drake.scenario import Scenario, load_scenario, scene_digest
@@ -100,7 +100,7 @@ def run_named_episode(spec: EpisodeSpec) -> dict:
     row = run_settings(scenario, spec.seed, spec.settings())
     row["scene_digest"] = scene_digest(scenario)
     if spec.feasibility == "net":
-        row["weights_digest"] = weights_digest()
+        row["weights_digest"] = weights_digest(shipped_weights(spec.sensor))
     return row
 
 
@@ -199,7 +199,7 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
             continue
         digest, weights = row.get("scene_digest"), row.get("weights_digest")
         if weights is not None or row.get("feasibility") == "net":
-            current = current or weights_digest()
+            current = current or weights_digest(shipped_weights(specs[0].sensor))
             if weights != current:
                 continue
         if digest is not None and digest == scene_digest(spec_scenario(by_seed[row["seed"]])):

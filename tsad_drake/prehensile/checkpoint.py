@@ -24,6 +24,14 @@ from tsad_drake.prehensile.network import NetConfig, PrehensileNet
 CHECKPOINT_FORMAT = "tsad-prehensile-net-v5"
 #: the shipped weights, produced by `tsad train` (see docs/model-card.md)
 DEFAULT_WEIGHTS = Path(__file__).resolve().parent.parent / "data" / "prehensile_net.pt"
+#: the shipped weights fine-tuned on realistic depth with cluster segmentation (model card)
+REALISTIC_WEIGHTS = DEFAULT_WEIGHTS.with_name("prehensile_net_realistic.pt")
+
+
+def shipped_weights(sensor: str = "ideal") -> Path:
+    """The shipped weights for observations of the sensor called `sensor`: the fine-tune on
+    realistic depth for every sensor but the ideal one."""
+    return DEFAULT_WEIGHTS if sensor == "ideal" else REALISTIC_WEIGHTS
 
 
 def encoding_signature() -> dict:
