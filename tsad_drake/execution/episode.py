@@ -61,6 +61,7 @@ class EpisodeResult:
     success: bool = False
     num_actions: int = 0  #: planned pick-and-places executed plus the final retrieval
     random_actions: int = 0  #: random relocations while the target was unseen
+    looks_again: int = 0  #: relocations after a failed plan (`EpisodeLimits.look_again`)
     relocations: int = 0
     falls: int = 0
     fallen: list[str] = dc.field(default_factory=list)
@@ -147,6 +148,10 @@ class EpisodeLimits:
 
     max_actions: int = DEFAULT_MAX_ACTIONS  #: pick-and-places, random ones included (>= 1)
     max_rejections: int = 8  #: consecutive motion-level rejections
+    #: when a plan fails with no action to execute ("no terminal state found", "target cannot be
+    #: grasped"), move one of the target's nearest neighbours to a random feasible place and
+    #: observe again, at most this many times per episode (0: the episode ends; the paper's rule)
+    look_again: int = 0
 
 
 def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config: Any, seed: int,
@@ -196,10 +201,36 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
             result.random_actions += 1
             continue
         plan = policy.plan(state, feasibility, workspace, rng)
+        if not plan.success and not plan.actions and result.looks_again < limits.look_again:
+            action = neighbour_action(feasibility, state, workspace, rng)
+            if action is not None:
+                result.planning_time_s += plan.planning_time_s
+                result.rounds.append(_round_record(plan, 0, world))
+                _execute(world, state, [action], result)
+                result.looks_again += 1
+                continue
         reason = _round(world, policy, plan, state, workspace, result, limits, action_check)
     result.network_evaluations = sum(m.evaluations for m in models)
     result.network_seconds = sum(m.network_seconds for m in models)
     return _finish(result, world, reason)
+
+
+#: how many of the target's nearest neighbours a look-again relocation chooses from
+LOOK_AGAIN_NEIGHBOURS = 3
+
+
+def neighbour_action(feasibility: FeasibilityModel, state: PlanningState, workspace: Workspace,
+                     rng: np.random.Generator) -> Action | None:
+    """A random feasible relocation of one of the target's `LOOK_AGAIN_NEIGHBOURS` nearest
+    neighbours (the objects most likely merged into it, cut from it or hiding it), else of any
+    object; None when nothing can be moved."""
+    target = state.objects[state.index(state.target)]
+    others = sorted((i for i, o in enumerate(state.objects) if o.name != state.target),
+                    key=lambda i: math.hypot(state.objects[i].x - target.x,
+                                             state.objects[i].y - target.y))
+    return (random_action(feasibility, state, workspace, rng,
+                          among=others[:LOOK_AGAIN_NEIGHBOURS])
+            or random_action(feasibility, state, workspace, rng))
 
 
 def _round(world: World, policy: ReplanningPolicy, plan: Plan, state: PlanningState,
