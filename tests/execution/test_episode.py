@@ -246,3 +246,38 @@ def test_a_round_that_only_turns_an_object_where_it_stands_is_no_progress():
     assert len(result.actions) == 1 and result.relocations == 1 and not result.fallen
     assert relocation_key("obj7", obj.x, obj.y) in seen[-1]
     assert not result.success and "nowhere left" in result.failure_reason
+
+
+def test_a_failed_plan_looks_again_after_moving_a_neighbour_of_the_target():
+    """With `look_again`, a plan that fails with nothing to do makes the episode move one of the
+    target's nearest neighbours (a feasible random relocation) and observe again, at most that
+    often; without it the episode ends at once (the paper's rule)."""
+    import dataclasses as dc
+
+    from tsad_drake.planning.types import Plan
+
+    calls = []
+
+    def fails_first(state, feasibility, workspace, config, rng):
+        calls.append(len(state.objects))
+        if len(calls) == 1:
+            return Plan("stub", None, [], False, "sub-search 0: no terminal state found")
+        return get_planner("tsad").plan(state, feasibility, workspace, config, rng)
+
+    scenario = generate_scenario("1", 1)
+    truth = {o.name: (o.x, o.y) for o in scenario.objects}
+    stub = dc.replace(get_planner("tsad"), plan=fails_first)
+    ended = _run(scenario, stub)
+    assert not ended.success and "no terminal state" in ended.failure_reason
+    assert ended.looks_again == 0 and not ended.actions
+
+    calls.clear()
+    result = _run(scenario, stub, limits=EpisodeLimits(look_again=1))
+    assert result.success and result.looks_again == 1, result.failure_reason
+    moved = result.actions[0]["true_object"]
+    target = scenario.object(scenario.target)
+    nearest = sorted((n for n in truth if n != scenario.target),
+                     key=lambda n: math.hypot(truth[n][0] - target.x, truth[n][1] - target.y))
+    assert moved in nearest[:3]
+    assert result.num_actions == len(result.actions) + 1  # the look-again move counts
+    assert not result.rounds[0]["claimed_success"] and len(calls) >= 2
