@@ -57,9 +57,6 @@ class EpisodeSettings:
     observer: str = "raycast"  #: raycast (NumPy ray caster) | drake (VTK renders in the station)
     closed_loop: bool = True
     max_actions: int = 12  #: pick-and-places allowed in the episode, random ones included
-    #: relocations of a target's neighbour after a plan fails with nothing to do, each followed
-    #: by a new observation (`EpisodeLimits.look_again`; 0: the episode ends there)
-    look_again: int = 0
     segmentation: str = "label"
     motion: bool = False  #: verify each action at the motion level before executing it
     #: geometric (the 2-D corridor rule judges) | physics (every action a Drake contact
@@ -212,7 +209,7 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
     result = run_episode(world, get_planner(settings.planner), model, config.planner, seed,
                          closed_loop=settings.closed_loop,
                          limits=EpisodeLimits(max_actions=settings.max_actions,
-                                              look_again=settings.look_again),
+                                              look_again=getattr(config.planner, "look_again", 0)),
                          action_check=action_check, feasibility_name=settings.feasibility)
     row = result.to_json()
     if settings.motion:

@@ -148,9 +148,8 @@ class EpisodeLimits:
 
     max_actions: int = DEFAULT_MAX_ACTIONS  #: pick-and-places, random ones included (>= 1)
     max_rejections: int = 8  #: consecutive motion-level rejections
-    #: when a plan fails with no action to execute ("no terminal state found", "target cannot be
-    #: grasped"), move one of the target's nearest neighbours to a random feasible place and
-    #: observe again, at most this many times per episode (0: the episode ends; the paper's rule)
+    #: relocations of a target's neighbour after a plan fails with nothing to execute, each
+    #: followed by a new observation (`TSADConfig.look_again`; 0: the episode ends there)
     look_again: int = 0
 
 

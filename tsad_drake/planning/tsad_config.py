@@ -95,6 +95,12 @@ class TSADConfig:
     #: r_e may go negative (a state with fewer empty cells than the reference is penalised);
     #: False floors r_e at 0 (the paper: "at the initial value of 0, the value increases by 0.1")
     negative_empty_reward: bool = True
+    #: closed loop: when a plan fails with nothing to execute ("no terminal state found", "target
+    #: cannot be grasped"), the episode moves one of the target's nearest neighbours to a random
+    #: feasible place and observes again, at most this many times (perception errors such as a
+    #: cut-off fragment blocking every corridor change with the scene); 0 ends the episode there,
+    #: as the paper does (`execution.episode.neighbour_action`)
+    look_again: int = 3
 
 
 #: the paper's value of every extra: each switches one option beyond the paper off
@@ -103,6 +109,7 @@ PAPER: dict[str, object] = {
     "rollout_bias": 0.0, "lookahead": False, "reuse_plans": False, "shorten": False,
     "complete_plans": 1, "backtrack_width": 1, "fast_rollouts": False, "angle_search": "gp3",
     "keep_rollout_paths": False, "terminal_extraction": False, "negative_empty_reward": False,
+    "look_again": 0,
 }
 
 #: the extras, by field name (the keys of `PAPER`)

@@ -52,9 +52,10 @@ def main(argv: list[str] | None = None) -> int:
                         help="depth sensor model (perception.sensor)")
     parser.add_argument("--noise-mm", type=float, default=None,
                         help="constant depth noise (mm) instead of the sensor's range law")
-    parser.add_argument("--look-again", type=int, default=0,
-                        help="after a plan fails with nothing to do, move a neighbour of the "
-                             "target and observe again, at most this often (default 0)")
+    parser.add_argument("--look-again", type=int, default=None,
+                        help="TSAD's look_again: after a plan fails with nothing to do, move a "
+                             "neighbour of the target and observe again, at most this often "
+                             "(default: the planner config's)")
     parser.add_argument("--json", default="", help="write every episode's result here")
     args = parser.parse_args(argv)
     overrides = () if args.noise_mm is None else (("noise_sigma0", args.noise_mm / 1000),
@@ -62,7 +63,9 @@ def main(argv: list[str] | None = None) -> int:
     settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
                                ablation=args.ablation, closed_loop=not args.open_loop,
                                segmentation=args.segmentation, sensor=args.sensor,
-                               sensor_overrides=overrides, look_again=args.look_again)
+                               sensor_overrides=overrides,
+                               planner_overrides=(() if args.look_again is None
+                                                  else (("look_again", args.look_again),)))
     try:
         get_planner(args.planner)
         make_config(args.planner, args.ablation)
