@@ -131,30 +131,3 @@ def test_a_box_seen_on_one_face_is_a_box_not_a_wide_cylinder():
     assert fit.shape == "box"
     assert max(fit.size) == pytest.approx(target.size[0], abs=0.008)
 
-
-def test_a_fragment_keeps_the_box_around_its_seen_points():
-    """With `fragment_points`, a segment of few points (the far end of a long box seen between
-    two occluders) gets the box around its seen points instead of a shape completed behind them
-    to at least 40 mm a side; bigger segments are fitted as before."""
-    from tsad_drake.perception.footprint import FootprintConfig, fit_footprint
-    from tsad_drake.perception.pose import PoseConfig, estimate_planar_pose
-
-    rng = np.random.default_rng(1)
-    strip = np.c_[rng.uniform(0.12, 0.135, 60), rng.uniform(-0.16, -0.15, 60),
-                  rng.uniform(0.03, 0.16, 60)]
-    pose_config = PoseConfig()
-    pose = estimate_planar_pose(strip, pose_config)
-    completed = fit_footprint(strip, pose, pose_config, FootprintConfig(fitted=True))
-    assert min(completed.size) >= pose_config.min_box_side - 1e-9
-    fragment = fit_footprint(strip, pose, pose_config,
-                             FootprintConfig(fitted=True, fragment_points=100))
-    lo, hi = strip[:, :2].min(axis=0), strip[:, :2].max(axis=0)
-    assert (fragment.x, fragment.y) == pytest.approx(tuple((lo + hi) / 2))
-    assert fragment.size == pytest.approx((max(hi[0] - lo[0], 0.01), max(hi[1] - lo[1], 0.01)))
-    outline = np.asarray(fragment.outline)  # the seen points' box, nothing behind it
-    half = np.asarray(fragment.size) / 2
-    assert outline.min(axis=0) == pytest.approx((lo + hi) / 2 - half, abs=1e-9)
-    assert outline.max(axis=0) == pytest.approx((lo + hi) / 2 + half, abs=1e-9)
-    assert np.all(outline.min(axis=0) <= lo + 1e-9) and np.all(outline.max(axis=0) >= hi - 1e-9)
-    whole = fit_footprint(strip, pose, pose_config, FootprintConfig(fitted=True, fragment_points=60))
-    assert whole.size == completed.size  # 60 points are no fragment below 60

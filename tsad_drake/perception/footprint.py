@@ -73,11 +73,6 @@ class FootprintConfig:
     #: m, and the longest of its shorter side (the built-in boxes and pillars are at most 54 mm
     #: wide; a wider guess makes a hidden target too wide for the gripper)
     max_width: float = 0.055
-    #: a segment of fewer points than this is a fragment (a cut-off part or a sliver of a
-    #: mostly hidden object): its footprint is the box around its seen points (at least
-    #: `fragment_min_side` a side), not a shape completed behind them (0: off)
-    fragment_points: int = 0
-    fragment_min_side: float = 0.01  #: m
 
 
 @dc.dataclass
@@ -260,12 +255,6 @@ def fit_footprint(points: np.ndarray, pose: PlanarPose, pose_config: PoseConfig,
     """The fitted outline of one segment whose planar pose (and shape) `pose` estimated
     (`free`: the views' free space, for hidden box ends)."""
     points = np.asarray(points, dtype=float)
-    if len(points) < config.fragment_points:
-        lo, hi = points[:, :2].min(axis=0), points[:, :2].max(axis=0)
-        size = tuple(float(max(v, config.fragment_min_side)) for v in hi - lo)
-        x, y = (float(v) for v in (lo + hi) / 2)
-        return FittedFootprint(x, y, 0.0, "box", size, footprint_polygon("box", size, x, y, 0.0),
-                               config.uncertainty_floor, 0.0)
     if len(points) < pose_config.min_side_points:
         outline = footprint_polygon(pose.shape, pose.size if pose.size[0] > 0 else (0.01,),
                                     pose.x, pose.y, pose.yaw)
