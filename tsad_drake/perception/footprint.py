@@ -73,6 +73,12 @@ class FootprintConfig:
     #: m, and the longest of its shorter side (the built-in boxes and pillars are at most 54 mm
     #: wide; a wider guess makes a hidden target too wide for the gripper)
     max_width: float = 0.055
+    #: a segment of fewer points than this whose points lie inside a bigger neighbour's fitted
+    #: outline (grown by `explained_margin`) is a piece of that neighbour (a corner or far end
+    #: cut off by an occluder) and joins it instead of standing as an object (0: off)
+    explained_points: int = 0
+    explained_margin: float = 0.005  #: m
+    explained_share: float = 0.8  #: share of its points the neighbour's outline must hold
 
 
 @dc.dataclass

@@ -111,8 +111,42 @@ def perceive(views: list[View], intrinsics: np.ndarray, scenario: Scenario,
                                        is_target=seg.is_target, shape=fit.shape,
                                        size=tuple(fit.size), outline=fit.outline,
                                        uncertainty=fit.uncertainty))
+    if config.footprint.fitted and config.footprint.explained_points > 0:
+        objects = join_explained(objects, config.footprint)
     target = next((o.name for o in objects if o.is_target), None)
     return Observation(views, cloud, PerceivedScene(objects, target), segments, segmentation)
+
+
+def join_explained(objects: list[PerceivedObject], config: FootprintConfig
+                   ) -> list[PerceivedObject]:
+    """Join each small object (`explained_points`) whose points a bigger object's fitted outline
+    (grown by `explained_margin`) holds to that object: its points are added, its own outline
+    goes. The target is never joined away (a neighbour's piece may join it)."""
+    from tsad_drake.geometry2d import convex_hull, points_in_polygon
+
+    def grown(obj: PerceivedObject) -> np.ndarray:
+        outline = np.asarray(obj.outline)
+        ring = np.linspace(0.0, 2 * np.pi, 12, endpoint=False)
+        disc = config.explained_margin * np.c_[np.cos(ring), np.sin(ring)]
+        return convex_hull((outline[:, None, :] + disc[None]).reshape(-1, 2))
+
+    order = sorted(range(len(objects)), key=lambda k: len(objects[k].points))
+    points = {k: objects[k].points for k in range(len(objects))}
+    gone: set[int] = set()
+    for k in order:
+        small = objects[k]
+        if len(small.points) >= config.explained_points or small.is_target or small.outline is None:
+            continue
+        for j in sorted(range(len(objects)), key=lambda j: -len(objects[j].points)):
+            big = objects[j]
+            if j == k or j in gone or len(big.points) <= len(small.points) or big.outline is None:
+                continue
+            inside = points_in_polygon(small.points[:, :2], grown(big))
+            if inside.mean() >= config.explained_share:
+                points[j] = np.concatenate([points[j], small.points])
+                gone.add(k)
+                break
+    return [dc.replace(o, points=points[k]) for k, o in enumerate(objects) if k not in gone]
 
 
 def observe_raycast(scenario: Scenario, camera: CameraConfig | None = None,
