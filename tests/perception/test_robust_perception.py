@@ -131,3 +131,33 @@ def test_a_box_seen_on_one_face_is_a_box_not_a_wide_cylinder():
     assert fit.shape == "box"
     assert max(fit.size) == pytest.approx(target.size[0], abs=0.008)
 
+
+
+def test_a_piece_inside_a_neighbours_outline_joins_it():
+    """`explained_points`: a small segment whose points a bigger neighbour's fitted outline holds
+    (a corner of a box cut off by an occluder) joins that neighbour; a small object beside it,
+    and the target, stay objects of their own."""
+    from tsad_drake.geometry2d import footprint_polygon
+    from tsad_drake.perception.footprint import FootprintConfig
+    from tsad_drake.perception.observe import join_explained
+    from tsad_drake.perception.types import PerceivedObject
+
+    def obj(name, x, y, n, size=0.05, target=False):
+        rng = np.random.default_rng(n)
+        pts = np.c_[rng.uniform(x - size / 2, x + size / 2, n),
+                    rng.uniform(y - size / 2, y + size / 2, n), rng.uniform(0, 0.1, n)]
+        return PerceivedObject(name, pts, x, y, 0.0, is_target=target, shape="box",
+                               size=(size, size),
+                               outline=footprint_polygon("box", (size, size), x, y, 0.0))
+
+    big = obj("big", 0.10, 0.0, 1500)
+    corner = obj("corner", 0.118, 0.018, 40, size=0.01)  # inside big's outline
+    beside = obj("beside", 0.10, 0.07, 40, size=0.01)  # 45 mm off big's side
+    small_target = obj("target", 0.12, -0.02, 40, size=0.01, target=True)
+    config = FootprintConfig(fitted=True, explained_points=150)
+    joined = join_explained([big, corner, beside, small_target], config)
+    names = [o.name for o in joined]
+    assert names == ["big", "beside", "target"]
+    assert len(joined[0].points) == 1540
+    off = join_explained([big, corner, beside], FootprintConfig(fitted=True, explained_points=30))
+    assert [o.name for o in off] == ["big", "corner", "beside"]  # 40 points are no piece below 30
