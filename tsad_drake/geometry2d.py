@@ -156,6 +156,16 @@ def side_wall_polygons(depth: float, width: float, thickness: float) -> list[np.
     return walls
 
 
+def padded_outline(outline: np.ndarray, pad: float) -> np.ndarray:
+    """The vertices of `outline` grown by `pad` (m) in `CIRCLE_VERTICES` directions each: a
+    polygon containing the outline's Minkowski sum with a disc of radius `pad`."""
+    if pad <= 0:
+        return np.asarray(outline)
+    angles = np.arange(CIRCLE_VERTICES) * 2 * np.pi / CIRCLE_VERTICES
+    ring = pad / np.cos(np.pi / CIRCLE_VERTICES) * np.stack([np.cos(angles), np.sin(angles)], 1)
+    return (np.asarray(outline)[:, None, :] + ring[None, :, :]).reshape(-1, 2)
+
+
 def convex_hull(points: np.ndarray) -> np.ndarray:
     """Counter-clockwise convex hull (K, 2) of planar points (Qhull; degenerate sets as they are)."""
     from scipy.spatial import ConvexHull, QhullError

@@ -109,8 +109,9 @@ def add_net_parsers(sub) -> None:
 
 
 def sensing_of(args: argparse.Namespace) -> Sensing:
-    """The `Sensing` that --observer, --sensor and --segmentation name."""
-    return Sensing(args.observer, args.sensor, args.segmentation)
+    """The `Sensing` that --observer (the ray caster where a command has none, as calibration),
+    --sensor and --segmentation name."""
+    return Sensing(getattr(args, "observer", "raycast"), args.sensor, args.segmentation)
 
 
 def cmd_dataset(args: argparse.Namespace) -> int:
@@ -151,7 +152,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     try:
         summary = train(data, out, args.epochs, args.batch, args.lr, args.seed, args.max_minutes,
                         args.threads, samples=samples, init=init,
-                        sensing=Sensing("raycast", args.sensor, args.segmentation))
+                        sensing=sensing_of(args))
     except ValueError as err:
         raise UsageError(str(err)) from None
     print(json.dumps({k: v for k, v in summary.items() if k != "history"}))
@@ -166,8 +167,7 @@ def cmd_net_calibrate(args: argparse.Namespace) -> int:
     load_checkpoint(args.weights)  # one clear line on a missing or bad file
     prepare_out_file(args.weights, option="--weights")  # updated in place: writable?
     print(json.dumps(calibrate_thresholds(Path(args.weights), args.scenes,
-                                          sensing=Sensing("raycast", args.sensor,
-                                                          args.segmentation))))
+                                          sensing=sensing_of(args))))
     return 0
 
 

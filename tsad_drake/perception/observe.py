@@ -122,26 +122,24 @@ def join_explained(objects: list[PerceivedObject], config: FootprintConfig
     """Join each small object (`explained_points`) whose points a bigger object's fitted outline
     (grown by `explained_margin`) holds to that object: its points are added, its own outline
     goes. The target is never joined away (a neighbour's piece may join it)."""
-    from tsad_drake.geometry2d import convex_hull, points_in_polygon
+    from tsad_drake.geometry2d import convex_hull, padded_outline, points_in_polygon
 
-    def grown(obj: PerceivedObject) -> np.ndarray:
-        outline = np.asarray(obj.outline)
-        ring = np.linspace(0.0, 2 * np.pi, 12, endpoint=False)
-        disc = config.explained_margin * np.c_[np.cos(ring), np.sin(ring)]
-        return convex_hull((outline[:, None, :] + disc[None]).reshape(-1, 2))
-
-    order = sorted(range(len(objects)), key=lambda k: len(objects[k].points))
+    grown = [None if o.outline is None
+             else convex_hull(padded_outline(o.outline, config.explained_margin))
+             for o in objects]
+    by_size = sorted(range(len(objects)), key=lambda k: len(objects[k].points))
+    largest_first = sorted(range(len(objects)), key=lambda k: -len(objects[k].points))
     points = {k: objects[k].points for k in range(len(objects))}
     gone: set[int] = set()
-    for k in order:
+    for k in by_size:
         small = objects[k]
-        if len(small.points) >= config.explained_points or small.is_target or small.outline is None:
+        if len(small.points) >= config.explained_points or small.is_target or grown[k] is None:
             continue
-        for j in sorted(range(len(objects)), key=lambda j: -len(objects[j].points)):
+        for j in largest_first:
             big = objects[j]
-            if j == k or j in gone or len(big.points) <= len(small.points) or big.outline is None:
+            if j == k or j in gone or len(big.points) <= len(small.points) or grown[j] is None:
                 continue
-            inside = points_in_polygon(small.points[:, :2], grown(big))
+            inside = points_in_polygon(small.points[:, :2], grown[j])
             if inside.mean() >= config.explained_share:
                 points[j] = np.concatenate([points[j], small.points])
                 gone.add(k)

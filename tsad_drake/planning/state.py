@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tsad_drake.geometry2d import CIRCLE_VERTICES, footprint_polygon, points_in_polygon
+from tsad_drake.geometry2d import footprint_polygon, padded_outline, points_in_polygon
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import Scenario
@@ -87,16 +87,6 @@ def completed_footprint_points(obj: PlanObject) -> np.ndarray:
     if obj.shape == "cylinder" and obj.size:
         parts.append(footprint_polygon("cylinder", obj.size, obj.x, obj.y, 0.0))
     return np.concatenate(parts)
-
-
-def padded_outline(outline: np.ndarray, pad: float) -> np.ndarray:
-    """The vertices of `outline` grown by `pad` (m) in `CIRCLE_VERTICES` directions each: a
-    polygon containing the outline's Minkowski sum with a disc of radius `pad`."""
-    if pad <= 0:
-        return np.asarray(outline)
-    angles = np.arange(CIRCLE_VERTICES) * 2 * np.pi / CIRCLE_VERTICES
-    ring = pad / np.cos(np.pi / CIRCLE_VERTICES) * np.stack([np.cos(angles), np.sin(angles)], 1)
-    return (np.asarray(outline)[:, None, :] + ring[None, :, :]).reshape(-1, 2)
 
 
 def occupied_cells(points_xy: np.ndarray, cell_centres: np.ndarray,
