@@ -281,3 +281,31 @@ def test_a_failed_plan_looks_again_after_moving_a_neighbour_of_the_target():
     assert moved in nearest[:3]
     assert result.num_actions == len(result.actions) + 1  # the look-again move counts
     assert not result.rounds[0]["claimed_success"] and len(calls) >= 2
+
+
+def test_a_failed_plan_is_observed_again_before_it_is_acted_on():
+    """With `reobserve`, a plan that fails (here: a real plan marked failed) is not executed: the
+    episode observes the unchanged scene again and plans anew, at most that often; without it the
+    closed loop executes the failed plan's actions."""
+    import dataclasses as dc
+
+    calls = []
+
+    def fails_first(state, feasibility, workspace, config, rng):
+        calls.append({o.name: (o.x, o.y) for o in state.objects})
+        plan = get_planner("tsad").plan(state, feasibility, workspace, config, rng)
+        if len(calls) == 1:
+            return dc.replace(plan, success=False, failure_reason="sub-search 1: stub")
+        return plan
+
+    scenario = generate_scenario("1", 1)
+    stub = dc.replace(get_planner("tsad"), plan=fails_first)
+    acted = _run(scenario, stub)
+    assert acted.reobservations == 0 and acted.rounds[0]["executed_actions"] >= 1
+
+    calls.clear()
+    result = _run(scenario, stub, limits=EpisodeLimits(reobserve=1))
+    assert result.success and result.reobservations == 1, result.failure_reason
+    assert result.rounds[0]["executed_actions"] == 0 and result.rounds[1]["claimed_success"]
+    assert calls[0] == calls[1]  # nothing moved between the two observations
+    assert result.num_actions == len(result.actions) + 1

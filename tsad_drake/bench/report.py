@@ -99,16 +99,21 @@ def _read_json(path: str | Path, what: str):
 
 def load_report_input(path: str | Path) -> tuple[str, dict]:
     """("bench", document) for a `tsad bench` result, ("agreement", document) for the physics
-    agreement study's output (`bench/studies/physics_agreement.py`); InputFileError otherwise."""
+    agreement study's output (`bench/studies/physics_agreement.py`), ("footprints", document) for
+    the footprint error study's (`bench/studies/hull_errors.py --json`); InputFileError
+    otherwise."""
+    from tsad_drake.bench.studies.hull_errors import is_footprint_document
     from tsad_drake.bench.studies.physics_agreement import is_agreement_document
 
     document = _read_json(path, "report input")
     if is_agreement_document(document):
         return "agreement", document
+    if is_footprint_document(document):
+        return "footprints", document
     problem = _bench_problem(document)
     if problem:
         raise InputFileError(f"{path} is neither a `tsad bench` result ({problem}) nor a physics "
-                             "agreement study")
+                             "agreement or footprint error study")
     return "bench", document
 
 
@@ -451,9 +456,11 @@ def _tables(scenario: str, columns: dict[str, dict]) -> list[str]:
     return lines
 
 
-def write_report(documents: list[dict], out: Path, agreements: list[dict] = ()) -> None:
+def write_report(documents: list[dict], out: Path, agreements: list[dict] = (),
+                 footprints: list[dict] = ()) -> None:
     """Write `out` (markdown), `out` with .json (digest) and .png (plot) beside it; `agreements`
-    (physics agreement studies) become a section of their own."""
+    (physics agreement studies) and `footprints` (footprint error studies) become sections of
+    their own."""
     groups = group_by_scenario(documents)
     machines = {json.dumps(d.get("machine", {}).get("platform")) for d in documents}
     lines = ["# Benchmark results", "",
@@ -479,6 +486,10 @@ def write_report(documents: list[dict], out: Path, agreements: list[dict] = ()) 
         lines += ["## Physics against the 2-D rule", ""]
         for document in agreements:
             lines += agreement_markdown(document)
+    if footprints:
+        from tsad_drake.bench.studies.hull_errors import footprint_markdown
+
+        lines += ["## Perceived footprints against the truth", "", *footprint_markdown(footprints)]
     page, digest_path, plot = report_outputs(out)
     atomic_write(plot, lambda tmp: _plot(groups, tmp))
     lines += [f"![success rate and actions per planner]({plot.name})", ""]

@@ -152,7 +152,8 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                                    "merged by seed; the same seed with different results in two "
                                    "files is refused. A physics agreement study "
                                    "(bench/studies/physics_agreement.py) among the inputs becomes "
-                                   "a section with its confusion matrices.")
+                                   "a section with its confusion matrices, footprint error studies "
+                                   "(bench/studies/hull_errors.py --json) a table.")
     p.add_argument("inputs", nargs="+", help="bench result JSON files")
     p.add_argument("--out", required=True, help="markdown file to write (plot and JSON beside it)")
 
@@ -344,7 +345,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     if not benches:
         raise UsageError("report: no `tsad bench` result among the inputs")
     documents = merge_documents(benches)
-    write_report(documents, out, [doc for _, kind, doc in inputs if kind == "agreement"])
+    write_report(documents, out, [doc for _, kind, doc in inputs if kind == "agreement"],
+                 [doc for _, kind, doc in inputs if kind == "footprints"])
     split = sum(len(d["sources"]) > 1 for d in documents)
     print(f"wrote {out}: {len(args.inputs)} files, {len(documents)} settings"
           + (f" ({split} merged from split runs)" if split else ""))

@@ -62,6 +62,7 @@ class EpisodeResult:
     num_actions: int = 0  #: planned pick-and-places executed plus the final retrieval
     random_actions: int = 0  #: random relocations while the target was unseen
     looks_again: int = 0  #: relocations after a failed plan (`EpisodeLimits.look_again`)
+    reobservations: int = 0  #: observations again after a failed plan (`EpisodeLimits.reobserve`)
     relocations: int = 0
     falls: int = 0
     fallen: list[str] = dc.field(default_factory=list)
@@ -151,6 +152,9 @@ class EpisodeLimits:
     #: relocations of a target's neighbour after a plan fails with nothing to execute, each
     #: followed by a new observation (`TSADConfig.look_again`; 0: the episode ends there)
     look_again: int = 0
+    #: observations of the unchanged scene after a failed plan, before acting on it
+    #: (`TSADConfig.reobserve`)
+    reobserve: int = 0
 
 
 def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config: Any, seed: int,
@@ -200,6 +204,11 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
             result.random_actions += 1
             continue
         plan = policy.plan(state, feasibility, workspace, rng)
+        if not plan.success and result.reobservations < limits.reobserve:
+            result.planning_time_s += plan.planning_time_s
+            result.rounds.append(_round_record(plan, 0, world))
+            result.reobservations += 1
+            continue
         if not plan.success and not plan.actions and result.looks_again < limits.look_again:
             action = neighbour_action(feasibility, state, workspace, rng)
             if action is not None:

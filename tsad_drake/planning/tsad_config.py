@@ -101,6 +101,12 @@ class TSADConfig:
     #: cut-off fragment blocking every corridor change with the scene); 0 ends the episode there,
     #: as the paper does (`execution.episode.neighbour_action`)
     look_again: int = 3
+    #: closed loop: when a plan fails (nothing found, or a sub-search after the first), the
+    #: episode observes the unchanged scene again before acting, at most this many times per
+    #: episode: each observation draws fresh sensor noise, and a split, merge or fragment that
+    #: made the plan fail is often gone in the next (ideal sensing reads the same scene, and the
+    #: planner searches it again with its generator moved on); 0 acts on the failed plan at once
+    reobserve: int = 0
 
 
 #: the paper's value of every extra: each switches one option beyond the paper off

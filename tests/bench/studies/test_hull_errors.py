@@ -25,3 +25,36 @@ def test_perceived_hulls_are_close_to_the_true_footprints():
     assert stats["all"]["objects"] == len(rows)
     assert stats["all"]["shortfall_median_mm"] < 3.0  # seen objects are perceived to mm
     assert set(stats) >= {"cylinder", "all"}
+
+
+def test_the_study_document_becomes_a_table_of_the_results_page(tmp_path, capsys):
+    """`hull_errors --json` writes a document that `tsad report` turns into a table row with the
+    median / p90 / worst shortfall and excess of the run it measured."""
+    import json
+
+    from cli_harness import invoke
+
+    from tsad_drake.bench.metrics import summarise
+    from tsad_drake.bench.studies.hull_errors import main
+
+    study = tmp_path / "footprints.json"
+    main(["--scenarios", "2", "--seeds", "1", "--sensor", "realistic", "--segmentation",
+          "cluster", "--json", str(study)])
+    doc = json.loads(study.read_text())
+    e = doc["summary"]["all"]
+    assert doc["settings"]["sensor"] == "realistic" and e["objects"] >= 8
+    assert e["shortfall_median_mm"] <= e["shortfall_p90_mm"] <= e["shortfall_max_mm"]
+    assert e["excess_median_mm"] <= e["excess_p90_mm"] <= e["excess_max_mm"]
+    rows = [{"seed": 0, "success": True, "num_actions": 3, "falls": 0, "failure_reason": "",
+             "planning_time_s": 1.0}]
+    bench = {"spec": {"scenario": "2", "planner": "tsad", "feasibility": "geometric"},
+             "seeds": [0], "rows": rows, "summary": summarise(rows)}
+    (tmp_path / "bench.json").write_text(json.dumps(bench))
+    code, _, err = invoke(capsys, ["report", tmp_path / "bench.json", study,
+                                   "--out", tmp_path / "page.md"])
+    assert code == 0, err
+    page = (tmp_path / "page.md").read_text()
+    assert "## Perceived footprints against the truth" in page
+    row = next(line for line in page.splitlines() if line.startswith("| realistic, cluster"))
+    assert (f"| {e['shortfall_median_mm']:.1f} / {e['shortfall_p90_mm']:.1f} / "
+            f"{e['shortfall_max_mm']:.1f} |") in row and "| 2 x 0-0 |" in row

@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses as dc
+import json
 
 import numpy as np
 
+from tsad_drake.outputs import atomic_write_text
 from tsad_drake.perception.observe import PerceptionConfig, observe_raycast, perception_config
 from tsad_drake.perception.sensor import SENSOR_PRESETS, SensorConfig, sensor_config
 from tsad_drake.planning.pointcloud_sim import perceived_hull
@@ -83,11 +85,42 @@ def summary(rows: list[HullError]) -> dict[str, dict[str, float]]:
                  "shortfall_p90_mm": float(np.percentile(short, 90)),
                  "shortfall_max_mm": float(short.max()),
                  "excess_median_mm": float(np.median(excess)),
-                 "excess_p90_mm": float(np.percentile(excess, 90))}
+                 "excess_p90_mm": float(np.percentile(excess, 90)),
+                 "excess_max_mm": float(excess.max())}
         for side in SIDES:
             entry[f"{side}_median_mm"] = 1000 * float(np.median([r.sides[side] for r in sel]))
         out[kind] = entry
     return out
+
+
+#: the `study` field of this study's JSON document
+STUDY = "footprint_errors"
+
+
+def is_footprint_document(document) -> bool:
+    """Whether `document` is this study's `--json` output."""
+    return isinstance(document, dict) and document.get("study") == STUDY
+
+
+def footprint_markdown(documents: list[dict]) -> list[str]:
+    """One table row per document (all objects): shortfall and excess, median / p90 / worst."""
+    lines = ["Perceived footprints (what the planners use: fitted outlines padded by their "
+             "uncertainty, or completed point hulls) against the true ones, ray-cast views; "
+             "shortfall: how far the truth reaches past the perceived footprint (what a gap or "
+             "margin must absorb), excess: how far the perceived footprint reaches past the truth "
+             "(space wrongly taken); mm, median / p90 / worst "
+             "(`python -m tsad_drake.bench.studies.hull_errors --json FILE`):", "",
+             "| sensing | scenarios x seeds | objects | shortfall | excess |", "|---|---|---|---|---|"]
+    for doc in documents:
+        st, e = doc["settings"], doc["summary"]["all"]
+        noise = "" if st.get("noise_mm") is None else f" at {st['noise_mm']} mm"
+        lines.append(
+            f"| {st['sensor']}{noise}, {st['segmentation']}{', plain' if st.get('plain') else ''}"
+            f" | {','.join(st['scenarios'])} x {st['seeds'][0]}-{st['seeds'][1]} | {e['objects']}"
+            f" | {e['shortfall_median_mm']:.1f} / {e['shortfall_p90_mm']:.1f} / "
+            f"{e['shortfall_max_mm']:.1f} | {e['excess_median_mm']:.1f} / {e['excess_p90_mm']:.1f}"
+            f" / {e['excess_max_mm']:.1f} |")
+    return lines + [""]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -101,6 +134,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--segmentation", default="label", choices=["label", "cluster"])
     parser.add_argument("--plain", action="store_true",
                         help="the ideal sensor's perception (point hulls) whatever the sensor")
+    parser.add_argument("--json", default="", metavar="FILE",
+                        help="also write the summary here; `tsad report` turns such files into "
+                             "a section of the results page")
     args = parser.parse_args(argv)
     sensor = sensor_config(args.sensor)
     if args.noise_mm is not None:
@@ -117,7 +153,14 @@ def main(argv: list[str] | None = None) -> None:
           f"{', plain pipeline' if args.plain else ''}, {args.segmentation} segmentation; mm):")
     print(f"{'kind':<14} {'objects':>7} {'short med':>9} {'p90':>5} {'max':>5} {'excess med':>10} "
           f"{'p90':>5}   signed per side (front back left right)")
-    for kind, e in summary(rows).items():
+    table = summary(rows)
+    if args.json:
+        settings = {"scenarios": args.scenarios.split(","), "seeds": [seeds.start, seeds.stop - 1],
+                    "sensor": args.sensor, "noise_mm": args.noise_mm,
+                    "segmentation": args.segmentation, "plain": args.plain}
+        atomic_write_text(args.json, json.dumps({"study": STUDY, "settings": settings,
+                                                 "summary": table}, indent=1))
+    for kind, e in table.items():
         sides = " ".join(f"{e[f'{s}_median_mm']:+5.1f}" for s in SIDES)
         print(f"{kind:<14} {e['objects']:>7d} {e['shortfall_median_mm']:>9.1f} "
               f"{e['shortfall_p90_mm']:>5.1f} {e['shortfall_max_mm']:>5.1f} "
