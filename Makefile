@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic bench-extra bench-motion bench-real-physics bench-physics bench-noise net-realistic report lint clean
+.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic footprints bench-extra bench-motion bench-real-physics bench-physics bench-noise net-realistic report lint clean
 
 all: test
 
@@ -124,6 +124,15 @@ bench-realistic: setup
 	  $(TSAD) bench --scenario $$s --planner rots-star --sensor realistic --segmentation cluster \
 	    --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
 	    --out $(BENCH_DIR)/s$$s-rots-star-realistic.json || exit 1; done
+	$(MAKE) footprints
+
+# Perceived footprints against the true ones (median / p90 / worst shortfall and excess), ideal
+# and realistic sensing, scenarios 1-3 seeds 0-9: a section of the results page.
+footprints: setup
+	mkdir -p results/perception
+	for c in "ideal label" "realistic cluster" "realistic label"; do set -- $$c; \
+	  $(PY) -m tsad_drake.bench.studies.hull_errors --sensor $$1 --segmentation $$2 --seeds 10 \
+	    --json results/perception/footprints-$$1-$$2.json || exit 1; done
 
 # Extras: TSAD on the prehensile network and on the oracle model (scenarios 1-3, 30 episodes
 # each: the network issue's target is net within 0.03 of oracle), the stronger ROTS* variant
@@ -191,7 +200,8 @@ net-realistic: setup
 	  --segmentation cluster --threads 1
 
 report: setup
-	$(TSAD) report $(wildcard $(BENCH_DIR)/*.json results/physics/*.json) --out results/RESULTS.md
+	$(TSAD) report $(wildcard $(BENCH_DIR)/*.json results/physics/*.json results/perception/*.json) \
+	  --out results/RESULTS.md
 
 lint: setup
 	$(VENV)/bin/ruff check tsad_drake tests
