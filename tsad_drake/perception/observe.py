@@ -18,7 +18,7 @@ from tsad_drake.perception.free_space import FreeSpace
 from tsad_drake.perception.pointcloud import CloudConfig, LabelledCloud, views_to_cloud
 from tsad_drake.perception.pose import PoseConfig, estimate_planar_pose
 from tsad_drake.perception.segmentation import ClusterConfig, Segment, segment
-from tsad_drake.perception.sensor import SensorConfig, apply_sensor
+from tsad_drake.perception.sensor import SensorConfig, read_depth
 from tsad_drake.perception.types import PerceivedObject, PerceivedScene
 from tsad_drake.scenario import Scenario
 from tsad_drake.viewpoints import CameraConfig, camera_pose, raycast, scenario_prisms
@@ -174,7 +174,7 @@ def observe_raycast(scenario: Scenario, camera: CameraConfig | None = None,
 def sensed_view(theta: float, depth: np.ndarray, label: np.ndarray, X_SC: np.ndarray,
                 sensor: SensorConfig, rng: np.random.Generator) -> View:
     """A View of one rendering as `sensor` reads it (labels cleared where the reading dropped)."""
-    read = apply_sensor(depth, sensor, rng)
+    read = read_depth(depth, sensor, rng)
     label = np.where(np.isfinite(read), np.asarray(label, dtype=np.int32), -1).astype(np.int32)
     return View(theta, read, label, np.asarray(X_SC, dtype=float))
 

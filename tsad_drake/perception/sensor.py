@@ -11,6 +11,13 @@ exact depth image into what such a camera returns, in this order:
    (the quadratic growth of triangulation error with range);
 4. quantisation of the reading to multiples of `quantisation`.
 
+A view may take several frames (`frames`): the arm holds still, so `read_depth` draws each frame's
+errors independently and fuses them per pixel (`fuse_frames`: a pixel read in at least half the
+frames keeps the mean of its readings near their median; flying pixels and dropouts in a minority
+of frames go, the Gaussian noise averages down by about the square root of the frames). The model's
+errors are independent between frames; on a real camera part of the error is fixed (pattern,
+calibration), which no number of frames removes, so the gain measured here is an upper bound.
+
 Presets (`SENSOR_PRESETS`): `ideal` returns the rendering unchanged; `realistic` is a short-range
 structured-light camera at 0.25-0.7 m: sigma(z) = 0.5 mm + 5 mm/m^2 z^2 (1.3 mm at 0.4 m, 2.3 mm
 at 0.6 m), 1 mm quantisation, half the silhouette pixels dropped and a fifth of the rest flying,
@@ -20,6 +27,7 @@ at 0.6 m), 1 mm quantisation, half the silhouette pixels dropped and a fifth of 
 from __future__ import annotations
 
 import dataclasses as dc
+import warnings
 
 import numpy as np
 
@@ -35,6 +43,7 @@ class SensorConfig:
     edge_dropout: float = 0.0  #: probability that a silhouette pixel returns no reading
     flying_pixel: float = 0.0  #: probability that a kept silhouette pixel reads between surfaces
     dropout: float = 0.0  #: probability that any other pixel returns no reading
+    frames: int = 1  #: depth frames taken per view and fused per pixel (`fuse_frames`)
 
     def __post_init__(self) -> None:
         for name in ("noise_sigma0", "noise_sigma2", "quantisation"):
@@ -46,6 +55,8 @@ class SensorConfig:
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"sensor {name} is a probability in [0, 1], "
                                  f"got {getattr(self, name)}")
+        if isinstance(self.frames, bool) or not isinstance(self.frames, int) or self.frames < 1:
+            raise ValueError(f"sensor frames must be an integer >= 1, got {self.frames!r}")
 
     @property
     def ideal(self) -> bool:
@@ -76,7 +87,16 @@ def sensor_config(name: str = "ideal", **overrides: float) -> SensorConfig:
     if unknown:
         raise ValueError(f"unknown sensor field(s) {', '.join(unknown)}: "
                          f"fields are {', '.join(sorted(fields))}")
-    return dc.replace(SENSOR_PRESETS[name], **{k: float(v) for k, v in overrides.items()})
+    return dc.replace(SENSOR_PRESETS[name], **{k: _field_value(k, v) for k, v in overrides.items()})
+
+
+def _field_value(name: str, value: float | int) -> float | int:
+    """`value` as the SensorConfig field `name` holds it (frames: an integer, else a float)."""
+    if name != "frames":
+        return float(value)
+    if float(value) != int(value):
+        raise ValueError(f"sensor frames must be an integer >= 1, got {value!r}")
+    return int(value)
 
 
 def noise_level_sensor(sigma: float) -> SensorConfig:
@@ -120,4 +140,34 @@ def apply_sensor(depth: np.ndarray, sensor: SensorConfig, rng: np.random.Generat
     if sensor.quantisation > 0:
         out = np.where(finite, np.round(out / sensor.quantisation) * sensor.quantisation, out)
     out[drop] = np.inf
+    return out.astype(np.float32)
+
+
+def read_depth(depth: np.ndarray, sensor: SensorConfig, rng: np.random.Generator) -> np.ndarray:
+    """The fused reading of `sensor.frames` frames of exact `depth` (one frame: `apply_sensor`,
+    drawing the same random numbers as before frames existed)."""
+    if sensor.frames == 1 or sensor.ideal:
+        return apply_sensor(depth, sensor, rng)
+    return fuse_frames(np.stack([apply_sensor(depth, sensor, rng)
+                                 for _ in range(sensor.frames)]), sensor)
+
+
+def fuse_frames(frames: np.ndarray, sensor: SensorConfig) -> np.ndarray:
+    """(K, H, W) readings of one view -> (H, W): per pixel, inf unless at least half the frames
+    read it; else the mean of the readings within 3 sigma (plus one quantisation step) of their
+    median, which leaves out flying pixels and averages the noise."""
+    frames = np.asarray(frames, dtype=float)
+    finite = np.isfinite(frames)
+    count = finite.sum(axis=0)
+    kept = count >= max(1, (frames.shape[0] + 1) // 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-nan pixels: no reading
+        median = np.nanmedian(np.where(finite, frames, np.nan), axis=0)
+    band = 3.0 * sensor.sigma(np.where(kept, median, 0.0)) + sensor.quantisation
+    near = finite & kept & (np.abs(frames - np.where(kept, median, 0.0)) <= band)
+    total = np.where(near, frames, 0.0).sum(axis=0)
+    used = near.sum(axis=0)
+    out = np.full(frames.shape[1:], np.inf)
+    good = kept & (used > 0)
+    out[good] = total[good] / used[good]
     return out.astype(np.float32)

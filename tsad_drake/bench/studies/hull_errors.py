@@ -131,6 +131,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sensor", default="ideal", choices=list(SENSOR_PRESETS))
     parser.add_argument("--noise-mm", type=float, default=None,
                         help="constant depth noise (mm) instead of the sensor's range law")
+    parser.add_argument("--frames", type=int, default=None,
+                        help="depth frames fused per view (default: the sensor's)")
     parser.add_argument("--segmentation", default="label", choices=["label", "cluster"])
     parser.add_argument("--plain", action="store_true",
                         help="the ideal sensor's perception (point hulls) whatever the sensor")
@@ -138,9 +140,13 @@ def main(argv: list[str] | None = None) -> None:
                         help="also write the summary here; `tsad report` turns such files into "
                              "a section of the results page")
     args = parser.parse_args(argv)
-    sensor = sensor_config(args.sensor)
+    overrides = {} if args.frames is None else {"frames": args.frames}
     if args.noise_mm is not None:
-        sensor = sensor_config(args.sensor, noise_sigma0=args.noise_mm / 1000, noise_sigma2=0.0)
+        overrides.update(noise_sigma0=args.noise_mm / 1000, noise_sigma2=0.0)
+    try:
+        sensor = sensor_config(args.sensor, **overrides)
+    except ValueError as error:
+        parser.error(str(error))
     rows = []
     seeds = range(args.seed_start, args.seed_start + args.seeds)
     for name in args.scenarios.split(","):
@@ -149,14 +155,15 @@ def main(argv: list[str] | None = None) -> None:
                                 args.plain)
     print(f"perceived hull vs true footprint, scenarios {args.scenarios} x seeds "
           f"{seeds.start}-{seeds.stop - 1} (ray caster, sensor {args.sensor}"
-          f"{'' if args.noise_mm is None else f' at {args.noise_mm} mm'}"
+          f"{'' if args.noise_mm is None else f' at {args.noise_mm} mm'}, "
+          f"{sensor.frames} frame(s) per view"
           f"{', plain pipeline' if args.plain else ''}, {args.segmentation} segmentation; mm):")
     print(f"{'kind':<14} {'objects':>7} {'short med':>9} {'p90':>5} {'max':>5} {'excess med':>10} "
           f"{'p90':>5}   signed per side (front back left right)")
     table = summary(rows)
     if args.json:
         settings = {"scenarios": args.scenarios.split(","), "seeds": [seeds.start, seeds.stop - 1],
-                    "sensor": args.sensor, "noise_mm": args.noise_mm,
+                    "sensor": args.sensor, "noise_mm": args.noise_mm, "frames": sensor.frames,
                     "segmentation": args.segmentation, "plain": args.plain}
         atomic_write_text(args.json, json.dumps({"study": STUDY, "settings": settings,
                                                  "summary": table}, indent=1))
