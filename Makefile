@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic footprints bench-extra bench-motion bench-real-physics bench-physics bench-noise net-realistic report lint clean
+.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic bench-frames footprints bench-extra bench-motion bench-real-physics bench-physics bench-noise net-realistic report lint clean
 
 all: test
 
@@ -125,6 +125,17 @@ bench-realistic: setup
 	    --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
 	    --out $(BENCH_DIR)/s$$s-rots-star-realistic.json || exit 1; done
 	$(MAKE) footprints
+
+# Realistic sensing with eight depth frames fused per view, TSAD on the geometric model and on the
+# network, held-out seeds 1000-1029 of scenarios 1-3 (about 10-40 s per episode).
+bench-frames: setup
+	mkdir -p $(BENCH_DIR)/heldout
+	for f in geometric net; do for s in 1 2 3; do \
+	  $(TSAD) bench --scenario $$s --planner tsad --feasibility $$f --sensor realistic \
+	    --segmentation cluster --set sensor.frames=8 --episodes 30 --seed-start 1000 \
+	    --workers $(BENCH_WORKERS) \
+	    --out $(BENCH_DIR)/heldout/s$$s-tsad$$( [ $$f = net ] && echo -net )-realistic-frames8.json \
+	    || exit 1; done; done
 
 # Perceived footprints against the true ones (median / p90 / worst shortfall and excess), ideal
 # and realistic sensing, scenarios 1-3 seeds 0-9: a section of the results page.

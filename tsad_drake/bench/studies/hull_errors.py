@@ -114,6 +114,7 @@ def footprint_markdown(documents: list[dict]) -> list[str]:
     for doc in documents:
         st, e = doc["settings"], doc["summary"]["all"]
         noise = "" if st.get("noise_mm") is None else f" at {st['noise_mm']} mm"
+        noise += f" x {st['frames']} frames" if st.get("frames", 1) > 1 else ""
         lines.append(
             f"| {st['sensor']}{noise}, {st['segmentation']}{', plain' if st.get('plain') else ''}"
             f" | {','.join(st['scenarios'])} x {st['seeds'][0]}-{st['seeds'][1]} | {e['objects']}"
