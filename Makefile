@@ -114,15 +114,17 @@ bench-real-physics: setup
 
 # Realistic perception: the depth sensor model (`--sensor realistic`: distance-dependent noise,
 # dropout and flying pixels at edges, quantisation) and segmentation without the renderer's
-# labels (`cluster`), for TSAD in both variants and ROTS* on scenarios 1-3.
+# labels (`cluster`), for TSAD in both variants and ROTS* on scenarios 1-3; one depth frame per view
+# (the rows of 2026-12-02; the preset has taken eight since 2026-12-03).
 bench-realistic: setup
 	mkdir -p $(BENCH_DIR)
 	for s in 1 2 3; do for v in full paper; do \
 	  $(TSAD) bench --scenario $$s --planner tsad --variant $$v --sensor realistic --segmentation cluster \
+	    --set sensor.frames=1 \
 	    --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
 	    --out $(BENCH_DIR)/s$$s-tsad-$$v-realistic.json || exit 1; done; \
 	  $(TSAD) bench --scenario $$s --planner rots-star --sensor realistic --segmentation cluster \
-	    --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
+	    --set sensor.frames=1 --feasibility $(BENCH_FEASIBILITY) --episodes $(BENCH_EPISODES) --workers $(BENCH_WORKERS) \
 	    --out $(BENCH_DIR)/s$$s-rots-star-realistic.json || exit 1; done
 	$(MAKE) footprints
 
@@ -201,13 +203,14 @@ bench-noise: setup
 
 # The network weights for realistic sensing (tsad_drake/data/prehensile_net_realistic.pt): the
 # shipped weights fine-tuned on scenes observed with the realistic depth sensor and cluster
-# segmentation (400 scenes, two processes: about 12 minutes; training about 9 minutes).
+# segmentation, one depth frame per view (400 scenes, two processes: about 12 minutes; training
+# about 9 minutes).
 NET_DATA_REALISTIC ?= out/data-realistic
 net-realistic: setup
-	$(TSAD) dataset --scenes 200 --seed-start 0 --sensor realistic --segmentation cluster --out $(NET_DATA_REALISTIC) & \
-	  $(TSAD) dataset --scenes 200 --seed-start 200 --sensor realistic --segmentation cluster --out $(NET_DATA_REALISTIC); wait
+	$(TSAD) dataset --scenes 200 --seed-start 0 --sensor realistic --frames 1 --segmentation cluster --out $(NET_DATA_REALISTIC) & \
+	  $(TSAD) dataset --scenes 200 --seed-start 200 --sensor realistic --frames 1 --segmentation cluster --out $(NET_DATA_REALISTIC); wait
 	$(TSAD) train --data $(NET_DATA_REALISTIC) --out tsad_drake/data/prehensile_net_realistic.pt \
-	  --init tsad_drake/data/prehensile_net.pt --epochs 10 --lr 5e-4 --sensor realistic \
+	  --init tsad_drake/data/prehensile_net.pt --epochs 10 --lr 5e-4 --sensor realistic --frames 1 \
 	  --segmentation cluster --threads 1
 
 report: setup

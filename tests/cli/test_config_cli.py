@@ -45,8 +45,10 @@ def test_a_dumped_config_plans_the_same_as_the_flags_it_came_from(tmp_path, caps
     code, dumped, _ = invoke(capsys, ["config", "--planner", "tsad", "--dump", *BUDGET])
     assert code == 0
     (tmp_path / "run.yaml").write_text(dumped)
-    with_sets = _plan(tmp_path, capsys, "sets", *BUDGET)
-    with_file = _plan(tmp_path, capsys, "file", "--config", tmp_path / "run.yaml")
+    # `tsad config` defaults to ideal sensing (as bench), `tsad plan` to realistic: say so
+    ideal = ["--sensor", "ideal", "--segmentation", "label"]
+    with_sets = _plan(tmp_path, capsys, "sets", *ideal, *BUDGET)
+    with_file = _plan(tmp_path, capsys, "file", *ideal, "--config", tmp_path / "run.yaml")
     assert with_sets["config"]["planner"]["iteration_budget"] == 400
     assert with_file["config"] == with_sets["config"]
     assert with_file["config_digest"] == with_sets["config_digest"]

@@ -22,7 +22,8 @@ def _plan_frozen_scene(tmp_path, capsys, key: tuple[str, int], *flags: str) -> d
 
 
 def test_plan_with_the_paper_variant_uses_no_extra(tmp_path, capsys):
-    doc = _plan_frozen_scene(tmp_path, capsys, ("1", 0), "--variant", "paper")
+    doc = _plan_frozen_scene(tmp_path, capsys, ("1", 0), "--variant", "paper", "--sensor", "ideal",
+                             "--segmentation", "label")
     assert doc["success"] and doc["variant"] == "paper"
     for record in doc["rounds"]:
         used = record["stats"].get("extras_used", {})
@@ -36,10 +37,12 @@ def test_bench_rows_of_the_variants_are_kept_apart():
     assert _label(spec) == "tsad-paper" and _label({**spec, "variant": "full"}) == "tsad"
 
 
-def test_plan_with_realistic_sensing_and_cluster_segmentation(tmp_path, capsys):
-    doc = _plan_frozen_scene(tmp_path, capsys, ("3", 1), "--sensor", "realistic",
-                             "--segmentation", "cluster")
+def test_plan_observes_as_a_robot_by_default(tmp_path, capsys):
+    """`tsad plan` without sensing flags: the realistic sensor (eight fused frames per view) and
+    cluster segmentation; the frozen scene's target is still retrieved."""
+    doc = _plan_frozen_scene(tmp_path, capsys, ("3", 1))
     assert doc["sensor"] == "realistic" and doc["settings"]["segmentation"] == "cluster"
+    assert doc["config"]["sensor"]["frames"] == 8
     assert doc["success"], doc["failure_reason"]
 
 

@@ -74,6 +74,7 @@ def test_same_seed_same_reading() -> None:
 def test_presets_and_overrides() -> None:
     realistic = sensor_config("realistic")
     assert not realistic.ideal and sensor_config("ideal").ideal
+    assert realistic.frames == 8 and sensor_config("ideal").frames == 1
     assert realistic.sigma(0.4) == pytest.approx(0.0005 + 0.005 * 0.16)
     assert sensor_config("realistic", noise_sigma0=0.002).noise_sigma0 == 0.002
     assert noise_level_sensor(0.004).sigma(0.9) == pytest.approx(0.004)
@@ -96,7 +97,7 @@ def test_bad_sensor_input_is_a_value_error(bad) -> None:
 def test_one_frame_reads_as_the_sensor_alone() -> None:
     """frames=1 draws exactly what `apply_sensor` draws: rows measured before frames existed
     reproduce."""
-    sensor = SENSOR_PRESETS["realistic"]
+    sensor = sensor_config("realistic", frames=1)
     depth = _step_image()
     np.testing.assert_array_equal(read_depth(depth, sensor, np.random.default_rng(4)),
                                   apply_sensor(depth, sensor, np.random.default_rng(4)))
@@ -106,8 +107,8 @@ def test_fused_frames_average_the_noise_and_drop_flying_pixels() -> None:
     """Eight frames of the realistic sensor: the noise on a flat surface falls by more than 2x
     without bias, flying pixels at the silhouette are gone, and more silhouette pixels are read
     than in one frame."""
-    eight = sensor_config("realistic", frames=8)
-    one = sensor_config("realistic")
+    eight = sensor_config("realistic")
+    one = sensor_config("realistic", frames=1)
     depth = _step_image(0.4, 0.6, 256)
     single = read_depth(depth, one, np.random.default_rng(7)).astype(float)
     fused = read_depth(depth, eight, np.random.default_rng(7)).astype(float)

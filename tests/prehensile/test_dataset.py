@@ -107,11 +107,15 @@ def test_drake_rendered_scene_gives_labelled_samples():
 def test_realistic_cluster_sensing_gives_its_own_shards_labelled_by_the_oracle(tmp_path):
     """Data observed as a robot observes (realistic depth, cluster segmentation): the noise is
     drawn from the scene seed (the same shard twice), the shard name says how it was observed,
-    and every cluster is labelled with the oracle's answer for the true object it stands for."""
+    and every cluster is labelled with the oracle's answer for the true object it stands for.
+    One frame per view (the shipped realistic weights' data) keeps the name it had before the
+    preset took eight."""
     sensing = pdata.Sensing(sensor="realistic", segmentation="cluster")
+    assert sensing.frames == 8 and sensing.tag == "raycast-realistic-cluster-x8"
+    assert pdata.Sensing("raycast", "realistic", "cluster", 1).tag == "raycast-realistic-cluster"
     pdata.generate_dataset(tmp_path, scenes=1, seed_start=SEED, sensing=sensing, progress=False)
     (shard,) = list(tmp_path.glob("shard_*.npz"))
-    assert shard.name.startswith("shard_raycast-realistic-cluster_")
+    assert shard.name.startswith("shard_raycast-realistic-cluster-x8_")
     data = pdata.load_dataset(tmp_path)
     again = pdata.scene_samples(SEED, sensing)
     assert np.array_equal(again.xy, data.xy) and np.array_equal(again.pickable, data.pickable)

@@ -149,4 +149,5 @@ def test_fine_tuning_starts_from_the_given_weights(tmp_path):
     for a, b in zip(shipped.state_dict().values(), tuned.state_dict().values(), strict=True):
         assert torch.equal(a, b)
     assert meta["init"] == weights_digest(DEFAULT_WEIGHTS)
-    assert meta["sensing"] == {"observer": "raycast", "sensor": "ideal", "segmentation": "label"}
+    assert meta["sensing"] == {"observer": "raycast", "sensor": "ideal", "segmentation": "label",
+                               "frames": 1}

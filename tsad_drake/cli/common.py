@@ -94,31 +94,51 @@ def add_scenario_args(p: argparse.ArgumentParser) -> None:
                         f"(scenarios {', '.join(OCCLUDED_SCENARIOS)})")
 
 
-def thread_count(text: str) -> int:
-    """argparse type of --threads: an integer from 1 to MAX_THREADS (checked while parsing, since
-    the threads are pinned before the command starts)."""
+def int_between(text: str, low: int, high: int) -> int:
+    """`text` as an integer from `low` to `high` (argparse.ArgumentTypeError otherwise)."""
     try:
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
-    if not 1 <= value <= MAX_THREADS:
-        raise argparse.ArgumentTypeError(f"must be between 1 and {MAX_THREADS}, got {value}")
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be between {low} and {high}, got {value}")
     return value
 
 
-def add_sensor_arg(p: argparse.ArgumentParser, noise_from: str = "--seed") -> None:
-    p.add_argument("--sensor", choices=("ideal", "realistic"), default="ideal",
+def thread_count(text: str) -> int:
+    """argparse type of --threads: an integer from 1 to MAX_THREADS (checked while parsing, since
+    the threads are pinned before the command starts)."""
+    return int_between(text, 1, MAX_THREADS)
+
+
+def add_sensor_arg(p: argparse.ArgumentParser, noise_from: str = "--seed",
+                   default: str = "ideal", frames: bool = False) -> None:
+    """--sensor (and, with `frames`, --frames for commands without --set sensor.frames)."""
+    p.add_argument("--sensor", choices=("ideal", "realistic"), default=default,
                    help="depth sensor model: ideal (the exact rendered depth) or realistic (a "
                         "structured-light camera: sigma(z) = 0.5 mm + 5 mm/m^2 z^2, 1 mm "
-                        "quantisation, dropout and flying pixels at depth edges; "
-                        f"perception/sensor.py); the noise is drawn from {noise_from} "
-                        "(default ideal)")
+                        "quantisation, dropout and flying pixels at depth edges, eight frames "
+                        f"fused per view; perception/sensor.py); the noise is drawn from "
+                        f"{noise_from} (default {default})")
+    if frames:
+        p.add_argument("--frames", type=frame_count, default=0, metavar="N",
+                       help="depth frames fused per view (default: the sensor's, 8 for "
+                            "realistic; the shipped realistic weights' data took 1)")
 
 
-def add_segmentation_arg(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--segmentation", choices=("label", "cluster"), default="label",
+#: most depth frames a view may fuse (--frames)
+MAX_FRAMES = 64
+
+
+def frame_count(text: str) -> int:
+    """argparse type of --frames: an integer from 1 to MAX_FRAMES."""
+    return int_between(text, 1, MAX_FRAMES)
+
+
+def add_segmentation_arg(p: argparse.ArgumentParser, default: str = "label") -> None:
+    p.add_argument("--segmentation", choices=("label", "cluster"), default=default,
                    help="label: the renderer's label image (stands in for instance "
-                        "segmentation); cluster: the fused point cloud alone (default label)")
+                        f"segmentation); cluster: the fused point cloud alone (default {default})")
 
 
 def add_threads_arg(p: argparse.ArgumentParser, default: int = 1) -> None:

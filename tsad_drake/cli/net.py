@@ -31,7 +31,7 @@ MAX_SCENES = 100_000  #: largest --scenes
 def add_calibration_sensing_args(p: argparse.ArgumentParser) -> None:
     """--sensor and --segmentation of the calibration scenes (ray caster; use the data's)."""
     group = p.add_argument_group("calibration scenes (observe them as the training data was)")
-    add_sensor_arg(group, noise_from="the scene seed")
+    add_sensor_arg(group, noise_from="the scene seed", frames=True)
     add_segmentation_arg(group)
 
 
@@ -51,7 +51,7 @@ def add_net_parsers(sub) -> None:
     p.add_argument("--observer", choices=OBSERVERS, default="raycast",
                    help="raycast: the NumPy ray caster (fast, same camera and pipeline; default); "
                         "drake: render depth with the Drake station (VTK)")
-    add_sensor_arg(p, noise_from="the scene seed")
+    add_sensor_arg(p, noise_from="the scene seed", frames=True)
     add_segmentation_arg(p)
     p.add_argument("--shard-size", type=int, default=20, help="scenes per shard file (default 20)")
     add_threads_arg(p)
@@ -102,7 +102,7 @@ def add_net_parsers(sub) -> None:
                    help="first scene seed (default 100000; must not overlap the training seeds)")
     p.add_argument("--observer", choices=OBSERVERS, default="raycast",
                    help="raycast (default) or drake rendering")
-    add_sensor_arg(p, noise_from="the scene seed")
+    add_sensor_arg(p, noise_from="the scene seed", frames=True)
     add_segmentation_arg(p)
     p.add_argument("--out", default=None, help="also write the JSON to this file")
     add_threads_arg(p)
@@ -110,8 +110,9 @@ def add_net_parsers(sub) -> None:
 
 def sensing_of(args: argparse.Namespace) -> Sensing:
     """The `Sensing` that --observer (the ray caster where a command has none, as calibration),
-    --sensor and --segmentation name."""
-    return Sensing(getattr(args, "observer", "raycast"), args.sensor, args.segmentation)
+    --sensor, --segmentation and --frames name."""
+    return Sensing(getattr(args, "observer", "raycast"), args.sensor, args.segmentation,
+                   args.frames)
 
 
 def cmd_dataset(args: argparse.Namespace) -> int:

@@ -38,16 +38,18 @@ MAX_WORKERS = 64  #: largest --workers
 BACKEND_NAMES = ("process", "ray")
 
 
-def _add_selector_args(p: argparse.ArgumentParser) -> None:
-    """The flags that pick a run's config (`tsad plan`, `bench` and `config`), with --config/--set."""
+def _add_selector_args(p: argparse.ArgumentParser, sensing: tuple[str, str] = ("ideal", "label")
+                       ) -> None:
+    """The flags that pick a run's config (`tsad plan`, `bench` and `config`), with --config/--set;
+    `sensing`: the default --sensor and --segmentation."""
     p.add_argument("--planner", required=True, choices=PLANNER_NAMES,
                    help="tsad (the paper's method), gp3, rots, rots-star (ROTS's sequence checked "
                         "step by step by the feasibility model, as in the paper), "
                         "rots-star-search (a stronger ROTS*: the model inside the A* search) "
                         "or optimal (exhaustive search on the oracle model, budgeted: the floor "
                         "for action counts)")
-    add_sensor_arg(p)
-    add_segmentation_arg(p)
+    add_sensor_arg(p, default=sensing[0])
+    add_segmentation_arg(p, default=sensing[1])
     p.add_argument("--variant", default="full", choices=VARIANTS,
                    help="TSAD variant: full (every option beyond the paper) or paper (the "
                         "paper's algorithm exactly; docs/design.md lists each extra); tsad only "
@@ -75,8 +77,9 @@ def add_parallel_args(p: argparse.ArgumentParser) -> None:
                         "RAY_ADDRESS; needs `pip install 'tsad_drake[ray]'`)")
 
 
-def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None:
-    _add_selector_args(p)
+def _add_planner_args(p: argparse.ArgumentParser, default_observer: str,
+                      sensing: tuple[str, str] = ("ideal", "label")) -> None:
+    _add_selector_args(p, sensing)
     p.add_argument("--feasibility", default=None, choices=FEASIBILITY_NAMES,
                    help="prehensile feasibility model the planner queries: net (the shipped "
                         "PointNet++ prehensile network; default for tsad), geometric (gripper "
@@ -96,12 +99,15 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str) -> None
 def add_plan_parsers(sub, add_scenario_args) -> None:
     p = sub.add_parser("plan", help="observe, plan and execute one episode; write plan.json",
                        description=(
-                           "Observe the scene, plan with the chosen planner and feasibility "
-                           "model, execute in the world model (closed loop: re-observe after "
-                           "each sub-search) and write DIR/plan.json. Exit 0 on success, 1 when "
-                           "the target could not be retrieved (the JSON says why)."))
+                           "Observe the scene (by default as a robot would: realistic depth, "
+                           "eight frames per view, cluster segmentation), plan with the chosen "
+                           "planner and feasibility model, execute in the world model (closed "
+                           "loop: re-observe after each sub-search) and write DIR/plan.json. "
+                           "Exit 0 on success, 1 when the target could not be retrieved (the "
+                           "JSON says why)."))
     add_scenario_args(p)
-    _add_planner_args(p, default_observer="drake")
+    # a plan observes as the robot would: realistic depth, segmentation without labels
+    _add_planner_args(p, default_observer="drake", sensing=("realistic", "cluster"))
     p.add_argument("--motion", action="store_true",
                    help="verify every action at the motion level (IK keyframes, trajectory "
                         "optimisation, dense collision check) before executing it; a rejected "

@@ -9,7 +9,10 @@ least squares averages the noise out instead:
 - box: at the fitted yaw, each seen face's position is the median of the side points assigned to
   it (its noise averages out); a face seen by too few side points takes the extent of the top
   cap's points and the side points on seen faces, less `edge_trim` extreme points at each end;
-  an extent still shorter than the smallest plausible side is completed away from the camera;
+  an extent still shorter than the smallest plausible side (or, for a footprint short both ways
+  and an end of this extent unseen, than the other extent: a square pillar) is completed at the
+  end seen worse (a face, then an edge: a few side points at the bound, then nothing), else away
+  from the camera: what was seen stays where its points put it;
   with the views' free space (`free_space.FreeSpace`), an end no face was seen on then grows into
   the shelf, in `grow_step`s, until the next step would cover space a camera saw through or the
   box would outgrow the largest object (`max_length` by `max_width`): a box whose back is hidden
@@ -33,7 +36,13 @@ import numpy as np
 from tsad_drake.geometry2d import convex_hull, footprint_polygon
 from tsad_drake.perception.free_space import FreeSpace
 from tsad_drake.perception.pointcloud import robust_top
-from tsad_drake.perception.pose import PlanarPose, PoseConfig, fit_circle, fit_rectangle_yaw
+from tsad_drake.perception.pose import (
+    PlanarPose,
+    PoseConfig,
+    complete_interval,
+    fit_circle,
+    fit_rectangle_yaw,
+)
 
 
 @dc.dataclass
@@ -158,9 +167,11 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
     inliers = [np.concatenate([cap_coords[axis], side_coords[axis][on_faces]]) for axis in range(2)]
     faces = []
     residuals = []
+    evidence = []  # per face: 2 seen as a face, 1 an edge (side points at its bound), 0 none
     for face in range(4):
         axis, end = divmod(face, 2)
         on = (nearest == face) & (dist[face] <= config.face_band)
+        evidence.append(1 if on.sum() >= config.min_face_points else 0)
         across = side_coords[1 - axis][on]
         spread = np.ptp(np.percentile(across, [10, 90])) if len(across) else 0.0
         # the seen ends of the two faces beside it, cut off at one depth by an occluder, are
@@ -172,6 +183,7 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
             position = float(np.median(coord))
             faces.append(position)
             residuals.append(coord - position)
+            evidence[face] = 2
         else:
             faces.append(None)
     sigma = robust_sigma(np.concatenate(residuals)) if residuals else 0.0
@@ -185,19 +197,17 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
         extents = _grow_hidden_ends(extents, axes, [f is not None for f in faces],
                                     robust_top(points), free, config)
     want = [max(hi - lo, pose_config.min_box_side) for lo, hi in extents]
-    if max(want) < pose_config.square_below:
-        want = [max(want)] * 2
+    if max(want) < pose_config.square_below:  # a square pillar, unless both ends were seen
+        want = [max(want) if min(evidence[2 * axis:2 * axis + 2]) == 0 else want[axis]
+                for axis in range(2)]
     for axis in range(2):
         lo, hi = extents[axis]
-        grow = want[axis] - (hi - lo)
-        if grow > 0:
-            along_x = axes[axis][0]
-            if abs(along_x) < 0.3:
-                lo, hi = lo - grow / 2, hi + grow / 2
-            elif along_x > 0:
-                hi += grow
-            else:
-                lo -= grow
+        seen_lo, seen_hi = evidence[2 * axis], evidence[2 * axis + 1]
+        if seen_lo != seen_hi:  # the end seen better stays; the other grows
+            grow = max(want[axis] - (hi - lo), 0.0)
+            lo, hi = (lo, hi + grow) if seen_lo > seen_hi else (lo - grow, hi)
+        else:
+            lo, hi = complete_interval(lo, hi, want[axis], axes[axis][0])
         extents[axis] = [lo, hi]
     centre = sum(a * (lo + hi) / 2 for a, (lo, hi) in zip(axes, extents, strict=True))
     return centre, (float(extents[0][1] - extents[0][0]), float(extents[1][1] - extents[1][0])), sigma

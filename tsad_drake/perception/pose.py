@@ -117,7 +117,7 @@ def fit_rectangle_yaw(xy: np.ndarray, step_deg: float = 1.0) -> tuple[float, flo
     return yaw, float(fine_costs.min())
 
 
-def _complete_interval(lo: float, hi: float, want: float, axis_x: float) -> tuple[float, float]:
+def complete_interval(lo: float, hi: float, want: float, axis_x: float) -> tuple[float, float]:
     """Grow [lo, hi] to length `want` away from the camera (towards +x along this axis)."""
     grow = want - (hi - lo)
     if grow <= 0:
@@ -138,8 +138,8 @@ def box_footprint(points: np.ndarray, yaw: float, config: PoseConfig
     want_v = max(v1 - v0, config.min_box_side)
     if max(want_u, want_v) < config.square_below:
         want_u = want_v = max(want_u, want_v)
-    u0, u1 = _complete_interval(u0, u1, want_u, axis_u[0])
-    v0, v1 = _complete_interval(v0, v1, want_v, axis_v[0])
+    u0, u1 = complete_interval(u0, u1, want_u, axis_u[0])
+    v0, v1 = complete_interval(v0, v1, want_v, axis_v[0])
     centre = axis_u * (u0 + u1) / 2 + axis_v * (v0 + v1) / 2
     return centre, (float(u1 - u0), float(v1 - v0))
 

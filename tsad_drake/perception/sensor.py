@@ -21,7 +21,8 @@ calibration), which no number of frames removes, so the gain measured here is an
 Presets (`SENSOR_PRESETS`): `ideal` returns the rendering unchanged; `realistic` is a short-range
 structured-light camera at 0.25-0.7 m: sigma(z) = 0.5 mm + 5 mm/m^2 z^2 (1.3 mm at 0.4 m, 2.3 mm
 at 0.6 m), 1 mm quantisation, half the silhouette pixels dropped and a fifth of the rest flying,
-0.5 % random dropout.
+0.5 % random dropout, and eight frames per view (the robot's sensing since 2026-12-03: rows
+measured before then took one, `--set sensor.frames=1`).
 """
 
 from __future__ import annotations
@@ -74,7 +75,7 @@ SENSOR_PRESETS: dict[str, SensorConfig] = {
     "ideal": SensorConfig(),
     "realistic": SensorConfig(noise_sigma0=0.0005, noise_sigma2=0.005, quantisation=0.001,
                               edge_jump=0.01, edge_dropout=0.5, flying_pixel=0.2,
-                              dropout=0.005),
+                              dropout=0.005, frames=8),
 }
 
 

@@ -38,13 +38,28 @@ class Sensing:
     observer: str = "raycast"  #: raycast (NumPy ray caster) | drake (the Drake station)
     sensor: str = "ideal"  #: ideal | realistic
     segmentation: str = "label"  #: label | cluster
+    #: depth frames fused per view (0: the sensor preset's, filled in on construction; the
+    #: shipped realistic weights' data took 1)
+    frames: int = 0
+
+    def __post_init__(self) -> None:
+        if not self.frames:
+            object.__setattr__(self, "frames", self.sensor_config().frames)
+
+    def sensor_config(self):
+        """The `perception.sensor.SensorConfig` of this sensing (ValueError on a bad name)."""
+        from tsad_drake.perception.sensor import sensor_config
+
+        return sensor_config(self.sensor, **({"frames": self.frames} if self.frames else {}))
 
     @property
     def tag(self) -> str:
-        """Name part of shard files: the observer alone for the default sensing."""
+        """Name part of shard files: the observer alone for the default sensing; fused frames
+        (more than one, of a noisy sensor) add `-xN`."""
         if (self.sensor, self.segmentation) == ("ideal", "label"):
             return self.observer
-        return f"{self.observer}-{self.sensor}-{self.segmentation}"
+        fused = f"-x{self.frames}" if self.frames > 1 and self.sensor != "ideal" else ""
+        return f"{self.observer}-{self.sensor}-{self.segmentation}{fused}"
 
 
 #: the shipped weights' data: ray caster, ideal sensor, label segmentation
@@ -131,10 +146,9 @@ def true_scene_after(scenario, oracle, state: PlanningState):
 def observe_state(scenario, sensing: Sensing, noise_seed: list[int] | int = 0) -> PlanningState:
     """Observe `scenario` as `sensing` says (perception configured for its sensor) -> state."""
     from tsad_drake.perception.observe import observe, observe_raycast, perception_config
-    from tsad_drake.perception.sensor import sensor_config
     from tsad_drake.planning.state import state_from_perception
 
-    sensor = sensor_config(sensing.sensor)
+    sensor = sensing.sensor_config()
     kwargs = dict(segmentation=sensing.segmentation, config=perception_config(sensor),
                   sensor=sensor, noise_seed=noise_seed)
     if sensing.observer == "drake":

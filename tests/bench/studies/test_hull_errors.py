@@ -39,7 +39,7 @@ def test_the_study_document_becomes_a_table_of_the_results_page(tmp_path, capsys
 
     study = tmp_path / "footprints.json"
     main(["--scenarios", "2", "--seeds", "1", "--sensor", "realistic", "--segmentation",
-          "cluster", "--json", str(study)])
+          "cluster", "--frames", "1", "--json", str(study)])
     doc = json.loads(study.read_text())
     e = doc["summary"]["all"]
     assert doc["settings"]["sensor"] == "realistic" and e["objects"] >= 8
