@@ -200,15 +200,9 @@ def fit_box(points: np.ndarray, yaw: float, pose_config: PoseConfig, config: Foo
     if max(want) < pose_config.square_below:  # a square pillar, unless both ends were seen
         want = [max(want) if min(evidence[2 * axis:2 * axis + 2]) == 0 else want[axis]
                 for axis in range(2)]
-    for axis in range(2):
-        lo, hi = extents[axis]
-        seen_lo, seen_hi = evidence[2 * axis], evidence[2 * axis + 1]
-        if seen_lo != seen_hi:  # the end seen better stays; the other grows
-            grow = max(want[axis] - (hi - lo), 0.0)
-            lo, hi = (lo, hi + grow) if seen_lo > seen_hi else (lo - grow, hi)
-        else:
-            lo, hi = complete_interval(lo, hi, want[axis], axes[axis][0])
-        extents[axis] = [lo, hi]
+    extents = [list(complete_interval(lo, hi, want[axis], axes[axis][0],
+                                      (evidence[2 * axis], evidence[2 * axis + 1])))
+               for axis, (lo, hi) in enumerate(extents)]
     centre = sum(a * (lo + hi) / 2 for a, (lo, hi) in zip(axes, extents, strict=True))
     return centre, (float(extents[0][1] - extents[0][0]), float(extents[1][1] - extents[1][0])), sigma
 

@@ -117,11 +117,15 @@ def fit_rectangle_yaw(xy: np.ndarray, step_deg: float = 1.0) -> tuple[float, flo
     return yaw, float(fine_costs.min())
 
 
-def complete_interval(lo: float, hi: float, want: float, axis_x: float) -> tuple[float, float]:
-    """Grow [lo, hi] to length `want` away from the camera (towards +x along this axis)."""
+def complete_interval(lo: float, hi: float, want: float, axis_x: float,
+                      seen: tuple[int, int] = (0, 0)) -> tuple[float, float]:
+    """Grow [lo, hi] to length `want` at the end seen worse (`seen`: how well each end was
+    seen, higher is better), else away from the camera (towards +x along this axis)."""
     grow = want - (hi - lo)
     if grow <= 0:
         return lo, hi
+    if seen[0] != seen[1]:  # the end seen better stays where its points put it
+        return (lo, hi + grow) if seen[0] > seen[1] else (lo - grow, hi)
     if abs(axis_x) < 0.3:  # axis across the view: both ends are seen equally often
         return lo - grow / 2, hi + grow / 2
     return (lo, hi + grow) if axis_x > 0 else (lo - grow, hi)

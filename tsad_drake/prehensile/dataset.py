@@ -43,14 +43,16 @@ class Sensing:
     frames: int = 0
 
     def __post_init__(self) -> None:
+        from tsad_drake.perception.sensor import sensor_config
+
         if not self.frames:
-            object.__setattr__(self, "frames", self.sensor_config().frames)
+            object.__setattr__(self, "frames", sensor_config(self.sensor).frames)
 
     def sensor_config(self):
         """The `perception.sensor.SensorConfig` of this sensing (ValueError on a bad name)."""
         from tsad_drake.perception.sensor import sensor_config
 
-        return sensor_config(self.sensor, **({"frames": self.frames} if self.frames else {}))
+        return sensor_config(self.sensor, frames=self.frames)
 
     @property
     def tag(self) -> str:
