@@ -73,6 +73,16 @@ def test_different_settings_stay_apart_and_identical_rows_merge_once():
     assert set(columns) == {"tsad", "tsad physics world", "tsad #2"}
 
 
+def test_realistic_columns_name_the_depth_frames_their_sensor_fused():
+    spec = {"scenario": "2", "planner": "tsad", "sensor": "realistic", "segmentation": "cluster"}
+    one = {**_doc({**spec, "config_digest": "a"}, [0]), "config": {"sensor": {"noise_sigma0": 1}}}
+    eight = {**_doc({**spec, "config_digest": "b"}, [0]), "config": {"sensor": {"frames": 8}}}
+    ideal = {**_doc({"scenario": "2", "planner": "tsad"}, [0]), "config": {"sensor": {}}}
+    columns = group_by_scenario(merge_documents([("a", one), ("b", eight), ("c", ideal)]))["2"]
+    assert set(columns) == {"tsad realistic sensor x1 frame cluster",
+                            "tsad realistic sensor x8 frames cluster", "tsad"}
+
+
 def test_each_row_is_set_against_its_table_in_the_paper_with_its_interval():
     from tsad_drake.bench.metrics import summarise
     from tsad_drake.bench.report import _paper_lines, paper_counterpart

@@ -123,7 +123,9 @@ def report_outputs(out: Path) -> tuple[Path, Path, Path]:
     return out, out.with_suffix(".json"), out.with_suffix(".png")
 
 
-def _label(spec: dict) -> str:
+def _label(spec: dict, config: dict | None = None) -> str:
+    """A column's name: the planner and every setting that differs from the paper's tables
+    (`config`: the document's run config, for the depth frames a realistic sensor fused)."""
     if spec.get("label"):  # named by whoever made the document (`tsad sweep`: the grid point)
         return spec["label"]
     label = spec["planner"]
@@ -131,6 +133,10 @@ def _label(spec: dict) -> str:
         label += f"-{spec['variant']}"
     if spec.get("sensor", "ideal") != "ideal":
         label += f" {spec['sensor']} sensor"
+        sensor = (config or {}).get("sensor")
+        if sensor:  # configs from before `frames` was a setting took one frame
+            frames = sensor.get("frames", 1)
+            label += f" x{frames} frame{'s' if frames > 1 else ''}"
     if spec.get("segmentation", "label") != "label":
         label += f" {spec['segmentation']}"
     if spec.get("ablation", "none") != "none":
@@ -189,7 +195,7 @@ def merge_documents(documents: list[tuple[str, dict]]) -> list[dict]:
             elif any(old.get(f) != row.get(f) for f in RESULT_FIELDS):
                 raise InputFileError(
                     f"{seen[row['seed']]} and {name} disagree on seed {row['seed']} of "
-                    f"{_label(doc['spec'])} scenario {doc['spec']['scenario']} "
+                    f"{_label(doc['spec'], doc.get('config'))} scenario {doc['spec']['scenario']} "
                     f"(success {old['success']} vs {row['success']}, actions "
                     f"{old['num_actions']} vs {row['num_actions']}): not the same run")
     for doc in merged.values():
@@ -207,7 +213,7 @@ def group_by_scenario(documents: list[dict]) -> dict[str, dict[str, dict]]:
     groups: dict[str, dict[str, dict]] = {}
     for doc in documents:
         column = groups.setdefault(str(doc["spec"]["scenario"]), {})
-        label, digest = _label(doc["spec"]), doc["spec"].get("config_digest")
+        label, digest = _label(doc["spec"], doc.get("config")), doc["spec"].get("config_digest")
         if label in column and digest and column[label]["spec"].get("config_digest") != digest:
             label += f" config {digest}"
         if label in column:

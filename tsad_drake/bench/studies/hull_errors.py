@@ -16,6 +16,7 @@ import json
 
 import numpy as np
 
+from tsad_drake.cli.common import MAX_FRAMES, frame_count
 from tsad_drake.outputs import atomic_write_text
 from tsad_drake.perception.observe import PerceptionConfig, observe_raycast, perception_config
 from tsad_drake.perception.sensor import SENSOR_PRESETS, SensorConfig, sensor_config
@@ -132,8 +133,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sensor", default="ideal", choices=list(SENSOR_PRESETS))
     parser.add_argument("--noise-mm", type=float, default=None,
                         help="constant depth noise (mm) instead of the sensor's range law")
-    parser.add_argument("--frames", type=int, default=None,
-                        help="depth frames fused per view (default: the sensor's)")
+    parser.add_argument("--frames", type=frame_count, default=None, metavar="N",
+                        help=f"depth frames fused per view, 1-{MAX_FRAMES} (default: the sensor's)")
     parser.add_argument("--segmentation", default="label", choices=["label", "cluster"])
     parser.add_argument("--plain", action="store_true",
                         help="the ideal sensor's perception (point hulls) whatever the sensor")
