@@ -366,7 +366,8 @@ def cmd_config(args: argparse.Namespace) -> int:
     if not args.dump:
         raise UsageError("config: nothing to do: --dump prints the effective config")
     print(f"# tsad config --planner {args.planner} --ablation {args.ablation} --variant "
-          f"{args.variant} --sensor {args.sensor}; load with --config and the same --planner")
+          f"{args.variant} --sensor {args.sensor}; load with --config and the same --planner and "
+          f"--sensor (`plan` observes with --sensor realistic unless told)")
     print(dump_run_config(config), end="")
     return 0
 
