@@ -8,6 +8,8 @@ rotation), as the model's `place_options` answers it for every cell.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from tsad_drake.planning.interface import FeasibilityModel, approach_order
@@ -37,8 +39,50 @@ def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: i
                    workspace: Workspace, prefer: float = 0.0) -> list[Action]:
     """Every feasible pick-and-place of object `index` to a grid cell (cell order): the cells
     `UntriedActions.check` accepts (the footprint models answer every cell in its first call)."""
-    check = UntriedActions(feasibility, state, workspace, [], prefer).check
-    return [a for c in range(len(workspace.cell_centres)) if (a := check(index, c)) is not None]
+    theta_pick, theta_place = move_table(feasibility, state, index, workspace, prefer)
+    name, cells = state.objects[index].name, workspace.cell_centres
+    return [Action(name, float(theta_pick[c]), float(cells[c, 0]), float(cells[c, 1]),
+                   float(theta_place[c])) for c in np.nonzero(~np.isnan(theta_place))[0]]
+
+
+#: model -> {(state key, object index, prefer): (pick angles, (theta_pick, theta_place) or None)}
+_MOVE_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: entries one model's move table keeps before it is cleared
+MOVE_TABLE_LIMIT = 200_000
+
+
+def _move_entry(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                prefer: float) -> list:
+    """The memo entry [pick angles, cell moves or None] of (state, object, prefer) for a model:
+    states are immutable and the answers depend on nothing else, so every search node, rollout
+    and round asking the same question shares one answer."""
+    table = _MOVE_TABLES.get(feasibility)
+    if table is None or len(table) > MOVE_TABLE_LIMIT:
+        table = _MOVE_TABLES[feasibility] = {}
+    key = (state.key(), index, round(float(prefer), 9))
+    entry = table.get(key)
+    if entry is None:
+        entry = table[key] = [None, None]
+    return entry
+
+
+def cached_pick_angles(feasibility: FeasibilityModel, state: PlanningState, index: int,
+                       workspace: Workspace, prefer: float = 0.0) -> list[float]:
+    """`pick_angles`, memoised per model, state, object and preferred angle."""
+    entry = _move_entry(feasibility, state, index, prefer)
+    if entry[0] is None:
+        entry[0] = pick_angles(feasibility, state, index, workspace, prefer)
+    return entry[0]
+
+
+def move_table(feasibility: FeasibilityModel, state: PlanningState, index: int,
+               workspace: Workspace, prefer: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """`cell_moves` of object `index` from its `pick_angles` nearest `prefer` (memoised)."""
+    entry = _move_entry(feasibility, state, index, prefer)
+    if entry[1] is None:
+        angles = cached_pick_angles(feasibility, state, index, workspace, prefer)
+        entry[1] = cell_moves(feasibility, state, index, workspace, angles)
+    return entry[1]
 
 
 def cell_moves(feasibility: FeasibilityModel, state: PlanningState, index: int,
@@ -84,22 +128,10 @@ class UntriedActions:
             feasibility, state, workspace, prefer)
         self._candidates = candidates
         self._next: Action | None = None
-        self._pick_angles: dict[int, list[float]] = {}
-        self._moves: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-
-    def pick_angles(self, index: int) -> list[float]:
-        """`pick_angles` of object `index` (memoised)."""
-        if index not in self._pick_angles:
-            self._pick_angles[index] = pick_angles(self.feasibility, self.state, index,
-                                                   self.workspace, self.prefer)
-        return self._pick_angles[index]
 
     def cell_moves(self, index: int) -> tuple[np.ndarray, np.ndarray]:
-        """`cell_moves` of object `index` (memoised)."""
-        if index not in self._moves:
-            self._moves[index] = cell_moves(self.feasibility, self.state, index, self.workspace,
-                                            self.pick_angles(index))
-        return self._moves[index]
+        """`cell_moves` of object `index` (memoised per model: `move_table`)."""
+        return move_table(self.feasibility, self.state, index, self.workspace, self.prefer)
 
     def check(self, index: int, cell: int) -> Action | None:
         """The action moving object `index` to cell `cell`, or None when it is infeasible."""
@@ -158,17 +190,20 @@ def random_action(feasibility: FeasibilityModel, state: PlanningState, workspace
     movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
     if among is not None:
         movable = [i for i in movable if i in among]
+    cells = workspace.cell_centres
     for i in rng.permutation(movable):
         if not feasibility.answers_one_cell:
-            actions = object_actions(feasibility, state, int(i), workspace, prefer)
-            if actions:
-                return actions[int(rng.integers(len(actions)))]
+            theta_pick, theta_place = move_table(feasibility, state, int(i), workspace, prefer)
+            valid = np.nonzero(~np.isnan(theta_place))[0]
+            if len(valid):
+                c = valid[int(rng.integers(len(valid)))]
+                return Action(state.objects[int(i)].name, float(theta_pick[c]),
+                              float(cells[c, 0]), float(cells[c, 1]), float(theta_place[c]))
             continue
         obj = state.objects[int(i)]
-        cells = workspace.cell_centres
         order = [int(c) for c in rng.permutation(len(cells))
                  if np.hypot(cells[c, 0] - obj.x, cells[c, 1] - obj.y) >= SAME_PLACE]
-        for theta_pick in pick_angles(feasibility, state, int(i), workspace, prefer):
+        for theta_pick in cached_pick_angles(feasibility, state, int(i), workspace, prefer):
             found = feasibility.first_place_option(state, int(i), theta_pick, order)
             if found is not None:
                 c, theta_place = found

@@ -8,7 +8,7 @@ gripper per approach angle, then answer all questions with vectorised corridor t
 - geometric: the hull of the object's perceived points completed by point reflection through its
   estimated centre (cylinders and boxes are centrally symmetric), nothing else.
 
-The gripper corridor is `geometry2d.approach_corridor`; the side walls block it too. An object can be
+The gripper corridor is `geometry2d.approach_corridors`; the side walls block it too. An object can be
 picked at theta when its corridor is clear and its width across fits the stroke minus the margin.
 Answers are cached per state (states are immutable; the key is the tuple of object poses).
 """
@@ -20,7 +20,7 @@ import dataclasses as dc
 import numpy as np
 
 from tsad_drake.geometry2d import (
-    approach_corridor,
+    approach_corridors,
     convex_polygons_overlap_pairs,
     footprint_polygon,
     pad_polygons,
@@ -55,6 +55,13 @@ class ObjectGeometry:
     widths: np.ndarray  #: (A,) m, width across the gripper per approach angle
     outer: float = 0.0  #: m, largest distance from the centre to the footprint
     inner: float = 0.0  #: m, radius of the largest centred disc inside the footprint
+    #: identity of the geometry for the model's pair caches (equal keys, equal geometry)
+    key: tuple = ()
+    #: identity of the footprint's shape in its own frame (equal keys: the same polygon about
+    #: the centre, wherever the object stands)
+    shape_key: tuple = ()
+    corridors: np.ndarray | None = None  #: (A, 4, 2) approach corridors to `centre`
+    wall_clear: np.ndarray | None = None  #: (A,) those corridors miss both side walls
 
     def __post_init__(self) -> None:
         rel = self.polygon - self.centre
@@ -69,21 +76,19 @@ class ObjectGeometry:
 
 def corridor_polygons(centres: np.ndarray, thetas: np.ndarray, workspace: Workspace) -> np.ndarray:
     """(Q, 4, 2) approach corridors to `centres` (Q, 2) along `thetas` (Q,)."""
-    return np.array([approach_corridor(x, y, th, workspace.swept_half_width,
-                                       workspace.finger_reach, CORRIDOR_OUTSIDE)
-                     for (x, y), th in zip(centres, thetas, strict=True)]).reshape(-1, 4, 2)
+    return approach_corridors(centres, thetas, workspace.swept_half_width,
+                              workspace.finger_reach, CORRIDOR_OUTSIDE)
 
 
-def corridor_hits(centres: np.ndarray, thetas: np.ndarray, corridors: np.ndarray,
-                  objects: list[ObjectGeometry], workspace: Workspace) -> np.ndarray:
-    """(Q, J) True where corridor q (to centres[q] along thetas[q]) touches object j's footprint.
+def corridor_pair_hits(centres: np.ndarray, thetas: np.ndarray, corridors: np.ndarray,
+                       objects: list[ObjectGeometry], workspace: Workspace) -> np.ndarray:
+    """(Q,) True where corridor q (to centres[q] along thetas[q]) touches footprint objects[q].
 
     Exact (the separating-axis test of `geometry2d`) but only run where the bounding discs of the
     footprints leave the answer open.
     """
-    q, j = len(centres), len(objects)
-    hits = np.zeros((q, j), dtype=bool)
-    if q == 0 or j == 0:
+    hits = np.zeros(len(centres), dtype=bool)
+    if len(centres) == 0:
         return hits
     obj_centres = np.array([o.centre for o in objects])
     outer = np.array([o.outer for o in objects])
@@ -91,27 +96,23 @@ def corridor_hits(centres: np.ndarray, thetas: np.ndarray, corridors: np.ndarray
     u = np.stack([np.cos(thetas), np.sin(thetas)], axis=1)
     v = np.stack([-u[:, 1], u[:, 0]], axis=1)
     back = (centres[:, 0] + CORRIDOR_OUTSIDE) / np.maximum(np.cos(thetas), 1e-6)
-    rel = obj_centres[None, :, :] - centres[:, None, :]
-    along = np.einsum("qjd,qd->qj", rel, u)
-    across = np.abs(np.einsum("qjd,qd->qj", rel, v))
-    d_along = np.maximum(0.0, np.maximum(along - workspace.finger_reach, -back[:, None] - along))
+    rel = obj_centres - centres
+    along = np.einsum("qd,qd->q", rel, u)
+    across = np.abs(np.einsum("qd,qd->q", rel, v))
+    d_along = np.maximum(0.0, np.maximum(along - workspace.finger_reach, -back - along))
     d_across = np.maximum(0.0, across - workspace.swept_half_width)
     dist = np.hypot(d_along, d_across)
-    sure_hit = dist < inner[None, :] - 1e-9
-    open_ = (dist <= outer[None, :] + 1e-9) & ~sure_hit
+    sure_hit = dist < inner - 1e-9
+    open_ = np.nonzero((dist <= outer + 1e-9) & ~sure_hit)[0]
     hits |= sure_hit
-    qi, ji = np.nonzero(open_)
-    if len(qi):
-        polys = pad_polygons([o.polygon for o in objects])
-        hits[qi, ji] = convex_polygons_overlap_pairs(corridors[qi], polys[ji])
+    if len(open_):
+        polys = pad_polygons([objects[q].polygon for q in open_])
+        hits[open_] = convex_polygons_overlap_pairs(corridors[open_], polys)
     return hits
 
 
-
-
-
 class StateGeometry:
-    """Per-state lazily computed corridor answers of a footprint model."""
+    """Per-state corridor answers of a footprint model, assembled from its per-object caches."""
 
     def __init__(self, objects: list[ObjectGeometry], num_plan_objects: int,
                  model: FootprintFeasibility) -> None:
@@ -126,24 +127,15 @@ class StateGeometry:
     def object_hits(self) -> np.ndarray:
         """(N, A, J) corridor to plan object i at angle a touches object j (j == i excluded)."""
         if self._object_hits is None:
-            ws, n = self.model.workspace, self.num_plan_objects
-            thetas = ws.approach_angles
-            centres = np.repeat(np.array([o.centre for o in self.objects[:n]]), len(thetas), axis=0)
-            angles = np.tile(thetas, n)
-            corridors = corridor_polygons(centres, angles, ws)
-            hits = corridor_hits(centres, angles, corridors, self.objects, ws)
-            hits = hits.reshape(n, len(thetas), len(self.objects))
-            hits[np.arange(n), :, np.arange(n)] = False
-            self._object_hits = hits
+            self._object_hits = self.model.object_pair_hits(self.objects[:self.num_plan_objects],
+                                                            self.objects)
         return self._object_hits
 
     @property
     def cell_hits(self) -> np.ndarray:
         """(C, A, J) corridor to grid cell c at angle a touches object j."""
         if self._cell_hits is None:
-            ws, cache = self.model.workspace, self.model.cell_corridors
-            hits = corridor_hits(cache.centres, cache.thetas, cache.polygons, self.objects, ws)
-            self._cell_hits = hits.reshape(len(ws.cell_centres), len(ws.approach_angles), -1)
+            self._cell_hits = np.stack([self.model.cell_column(o) for o in self.objects], axis=2)
         return self._cell_hits
 
 
@@ -158,7 +150,14 @@ class CellCorridors:
 
 
 class FootprintFeasibility(FeasibilityModel):
-    """Shared machinery: subclasses say how a PlanObject becomes an ObjectGeometry."""
+    """Shared machinery: subclasses say how a PlanObject becomes an ObjectGeometry.
+
+    Every corridor and placement test is between two footprints (or a footprint and the fixed
+    cell corridors), so answers are cached per pair of object geometries (by `ObjectGeometry.key`)
+    and a state's answers are assembled from them: a search moves one object per action, so a
+    new state costs the tests of the moved object only, and every state sharing a pair shares
+    its answer (across the tree, the sub-searches and the rounds on one observation).
+    """
 
     name = "footprint"
 
@@ -171,7 +170,14 @@ class FootprintFeasibility(FeasibilityModel):
         self._walls = side_wall_polygons(workspace.depth, workspace.width,
                                          workspace.wall_thickness)
         self._states: dict[tuple, StateGeometry] = {}
-        self._objects: dict[tuple, tuple[ObjectGeometry, np.ndarray]] = {}
+        self._objects: dict[tuple, ObjectGeometry] = {}
+        #: (corridor owner key, obstacle key) -> (A,) the corridor to the owner hits the obstacle
+        self._pairs: dict[tuple, np.ndarray] = {}
+        self._cell_columns: dict[tuple, np.ndarray] = {}  #: obstacle key -> (C, A) cell hits
+        #: (mover shape key, rotation, obstacle key) -> (C,) the turned mover at each cell meets it
+        self._placements: dict[tuple, np.ndarray] = {}
+        #: (shape key, rotation) -> (C, K, 2) the turned shape on every cell, (C,) on the floor
+        self._turned_shapes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
         thetas = workspace.approach_angles
         cells = workspace.cell_centres
         centres = np.repeat(cells, len(thetas), axis=0)
@@ -196,30 +202,82 @@ class FootprintFeasibility(FeasibilityModel):
                 corridors, np.broadcast_to(wall, (len(corridors),) + wall.shape))
         return clear
 
-    def _object_entry(self, obj: PlanObject) -> tuple[ObjectGeometry, np.ndarray]:
+    def prepared(self, geom: ObjectGeometry, key: tuple, shape_key: tuple) -> ObjectGeometry:
+        """`geom` with its cache keys, its approach corridors and their wall test filled in."""
+        thetas = self.workspace.approach_angles
+        geom.key, geom.shape_key = key, shape_key
+        geom.corridors = corridor_polygons(np.repeat(geom.centre[None], len(thetas), axis=0),
+                                           thetas, self.workspace)
+        geom.wall_clear = self._walls_clear(geom.corridors)
+        return geom
+
+    def _object_entry(self, obj: PlanObject) -> ObjectGeometry:
         key = (obj.name, obj.pose, obj.origin, len(obj.points))
-        entry = self._objects.get(key)
-        if entry is None:
-            geom = self.object_geometry(obj)
-            thetas = self.workspace.approach_angles
-            corridors = corridor_polygons(np.repeat(geom.centre[None], len(thetas), axis=0),
-                                          thetas, self.workspace)
-            entry = (geom, self._walls_clear(corridors))
-            self._objects[key] = entry
-        return entry
+        geom = self._objects.get(key)
+        if geom is None:
+            # the perceived points move rigidly with the object: its origin and how far it has
+            # turned since fix the shape about its centre
+            origin = obj.origin if obj.origin is not None else obj.pose
+            shape = (obj.name, origin, len(obj.points), round(obj.yaw - origin[2], 12))
+            geom = self._objects[key] = self.prepared(self.object_geometry(obj), key, shape)
+        return geom
+
+    def _clear_caches(self) -> None:
+        for cache in (self._states, self._objects, self._pairs, self._cell_columns,
+                      self._placements, self._turned_shapes):
+            cache.clear()
 
     def geometry(self, state: PlanningState) -> StateGeometry:
         """The cached StateGeometry of `state`."""
         key = state.key()
         geom = self._states.get(key)
         if geom is None:
-            if len(self._states) > CACHE_LIMIT:
-                self._states.clear()
-                self._objects.clear()
-            objects = [self._object_entry(o)[0] for o in state.objects]
+            if len(self._states) > CACHE_LIMIT or len(self._placements) > CACHE_LIMIT:
+                self._clear_caches()
+            objects = [self._object_entry(o) for o in state.objects]
             geom = StateGeometry(objects + self.static_obstacles(state), len(objects), self)
             self._states[key] = geom
         return geom
+
+    def object_pair_hits(self, owners: list[ObjectGeometry],
+                         obstacles: list[ObjectGeometry]) -> np.ndarray:
+        """(N, A, J) the corridor to owners[i] at angle a touches obstacles[j] (False for i == j),
+        from the pair cache; the missing pairs are tested in one batch."""
+        num_angles = len(self.workspace.approach_angles)
+        hits = np.zeros((len(owners), num_angles, len(obstacles)), dtype=bool)
+        missing = []
+        for i, owner in enumerate(owners):
+            for j, obstacle in enumerate(obstacles):
+                if i == j:
+                    continue
+                row = self._pairs.get((owner.key, obstacle.key))
+                if row is None:
+                    missing.append((i, j))
+                else:
+                    hits[i, :, j] = row
+        if missing:
+            thetas = self.workspace.approach_angles
+            pair_owners = [owners[i] for i, _ in missing]
+            centres = np.repeat(np.array([o.centre for o in pair_owners]), num_angles, axis=0)
+            corridors = np.concatenate([o.corridors for o in pair_owners])
+            found = corridor_pair_hits(centres, np.tile(thetas, len(missing)), corridors,
+                                       [obstacles[j] for _, j in missing for _ in thetas],
+                                       self.workspace).reshape(len(missing), num_angles)
+            for (i, j), row in zip(missing, found, strict=True):
+                self._pairs[(owners[i].key, obstacles[j].key)] = row
+                hits[i, :, j] = row
+        return hits
+
+    def cell_column(self, obstacle: ObjectGeometry) -> np.ndarray:
+        """(C, A) the corridor to grid cell c at angle a touches `obstacle` (cached)."""
+        column = self._cell_columns.get(obstacle.key)
+        if column is None:
+            ws, cache = self.workspace, self.cell_corridors
+            column = corridor_pair_hits(cache.centres, cache.thetas, cache.polygons,
+                                        [obstacle] * len(cache.centres), ws)
+            column = self._cell_columns[obstacle.key] = column.reshape(
+                len(ws.cell_centres), len(ws.approach_angles))
+        return column
 
     # -- FeasibilityModel ----------------------------------------------------------------------
     def blockers(self, state: PlanningState, index: int) -> list[frozenset[int]]:
@@ -230,9 +288,10 @@ class FootprintFeasibility(FeasibilityModel):
 
     def reachable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) the object fits the stroke and its corridor misses the walls (ignoring objects)."""
-        geom, wall_clear = self._object_entry(state.objects[index])
+        geom = self._object_entry(state.objects[index])
         ws = self.workspace
-        return wall_clear & (geom.widths <= ws.stroke - ws.grasp_margin - self.fit_margin + 1e-9)
+        return geom.wall_clear & (geom.widths <= ws.stroke - ws.grasp_margin - self.fit_margin
+                                  + 1e-9)
 
     def pickable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) object `index` can be picked at each angle: reachable with a clear corridor."""
@@ -240,6 +299,49 @@ class FootprintFeasibility(FeasibilityModel):
         return self.reachable(state, index) & ~g.object_hits[index].any(axis=1)
 
     # -- placements ----------------------------------------------------------------------------
+    def _turned(self, me: ObjectGeometry, rotation: float) -> tuple[np.ndarray, np.ndarray]:
+        """(C, K, 2) `me` turned by `rotation` about its centre and put on every grid cell, and
+        (C,) whether each lies inside the workspace (`edge_margin` inside its edges); cached per
+        shape (`ObjectGeometry.shape_key`: where the object stands does not matter)."""
+        key = (me.shape_key, rotation)
+        entry = self._turned_shapes.get(key)
+        if entry is None:
+            rotated = (me.polygon - me.centre) @ rotation2d(rotation).T
+            polys = rotated[None, :, :] + self.workspace.cell_centres[:, None, :]
+            entry = (polys, inside_workspace(polys, self.workspace, self.edge_margin))
+            self._turned_shapes[key] = entry
+        return entry
+
+    def _placement_hits(self, me: ObjectGeometry, rotation: float,
+                        others: list[ObjectGeometry]) -> np.ndarray:
+        """(C,) `me` turned by `rotation` on a cell (inside the workspace) comes within
+        `placement_gap` of one of `others`; cached per (shape, rotation, other), the missing
+        pairs tested in one batch."""
+        polys, inside = self._turned(me, rotation)
+        cells, gap = self.workspace.cell_centres, self.placement_gap
+        hits = np.zeros(len(cells), dtype=bool)
+        missing = []
+        for other in others:
+            known = self._placements.get((me.shape_key, rotation, other.key))
+            if known is None:
+                missing.append(other)
+            else:
+                hits |= known
+        if missing:
+            centres = np.array([o.centre for o in missing])
+            outer = np.array([o.outer for o in missing])
+            dist = np.linalg.norm(cells[None, :, :] - centres[:, None, :], axis=2)  # (M, C)
+            near = (dist <= me.outer + outer[:, None] + gap + 1e-9) & inside[None, :]
+            found = np.zeros(near.shape, dtype=bool)
+            mi, ci = np.nonzero(near)
+            if len(mi):
+                found[mi, ci] = convex_polygons_overlap_pairs(
+                    polys[ci], pad_polygons([o.polygon for o in missing])[mi], gap)
+            for other, row in zip(missing, found, strict=True):
+                self._placements[(me.shape_key, rotation, other.key)] = row
+            hits |= found.any(axis=0)
+        return hits
+
     def place_options(self, state: PlanningState, index: int, theta_pick: float) -> np.ndarray:
         """(C,) theta_place per grid cell for moving object `index` picked at theta_pick; nan
         where no angle works.
@@ -255,38 +357,29 @@ class FootprintFeasibility(FeasibilityModel):
         memo_key = (index, round(float(theta_pick), 9))
         if memo_key in g.place_memo:
             return g.place_memo[memo_key]
-        ws, gap, edge = self.workspace, self.placement_gap, self.edge_margin
+        ws, gap = self.workspace, self.placement_gap
         thetas, cells = ws.approach_angles, ws.cell_centres
         me = g.objects[index]
-        others = [j for j in range(len(g.objects)) if j != index]
-        clear = self.cell_corridors.wall_clear & ~g.cell_hits[:, :, others].any(axis=2)
+        others = [o for j, o in enumerate(g.objects) if j != index]
+        clear = self.cell_corridors.wall_clear & ~g.cell_hits[:, :, [
+            j for j in range(len(g.objects)) if j != index]].any(axis=2)
         result = np.full(len(cells), np.nan)
         unresolved = np.ones(len(cells), dtype=bool)
-        other_centres = np.array([g.objects[j].centre for j in others]).reshape(-1, 2)
-        other_outer = np.array([g.objects[j].outer for j in others])
-        other_inner = np.array([g.objects[j].inner for j in others])
-        other_polys = pad_polygons([g.objects[j].polygon for j in others]) if others else None
-        dist = np.linalg.norm(cells[:, None, :] - other_centres[None, :, :], axis=2)  # (C, O)
-        occupied = np.any(dist < me.inner + other_inner[None, :] + gap, axis=1)
-        unresolved &= ~occupied
-        local = me.polygon - me.centre
+        if others:
+            other_centres = np.array([o.centre for o in others])
+            other_inner = np.array([o.inner for o in others])
+            dist = np.linalg.norm(cells[:, None, :] - other_centres[None, :, :], axis=2)
+            unresolved &= ~np.any(dist < me.inner + other_inner[None, :] + gap, axis=1)
         for k in approach_order(thetas, theta_pick):
-            cand = np.nonzero(unresolved & clear[:, k])[0]
-            if len(cand) == 0:
+            cand = unresolved & clear[:, k]
+            if not cand.any():
                 continue
-            rotated = local @ rotation2d(thetas[k] - theta_pick).T
-            polys = rotated[None, :, :] + cells[cand][:, None, :]  # (c, K, 2)
-            ok = inside_workspace(polys, ws, edge)
-            if other_polys is not None:
-                near = dist[cand] <= me.outer + other_outer[None, :] + gap + 1e-9
-                ci, oi = np.nonzero(near & ok[:, None])
-                if len(ci):
-                    overlap = convex_polygons_overlap_pairs(polys[ci], other_polys[oi], gap)
-                    bad = np.zeros(len(cand), dtype=bool)
-                    np.logical_or.at(bad, ci, overlap)
-                    ok &= ~bad
-            result[cand[ok]] = thetas[k]
-            unresolved[cand[ok]] = False
+            rotation = round(float(thetas[k] - theta_pick), 9)
+            ok = cand & self._turned(me, rotation)[1]
+            if ok.any() and others:
+                ok &= ~self._placement_hits(me, rotation, others)
+            result[ok] = thetas[k]
+            unresolved[ok] = False
             if not unresolved.any():
                 break
         g.place_memo[memo_key] = result
@@ -367,6 +460,7 @@ class OracleFeasibility(FootprintFeasibility):
     def static_obstacles(self, state: PlanningState) -> list[ObjectGeometry]:
         seen = frozenset(self.true_object(o).name for o in state.objects)
         if seen not in self._hidden:
-            self._hidden[seen] = [self._geometry_at(o, o.x, o.y, o.yaw)
+            self._hidden[seen] = [self.prepared(self._geometry_at(o, o.x, o.y, o.yaw),
+                                                ("unseen", o.name), ("unseen", o.name))
                                   for o in self.scenario.objects if o.name not in seen]
         return self._hidden[seen]

@@ -57,11 +57,24 @@ def move_object(obj: PlanObject, x: float, y: float, rotation: float) -> PlanObj
                       yaw=float(obj.yaw + rotation), origin=origin, outline=outline)
 
 
+#: (object key, x, y, rotation) -> the moved object: a search moves the same object to the same
+#: cell from many states, and objects are immutable
+_MOVED: dict[tuple, PlanObject] = {}
+#: moved objects kept before the memo is cleared
+MOVED_LIMIT = 100_000
+
+
 def simulate_pick_place(state: PlanningState, action: Action) -> PlanningState:
     """The next state s' after `action` in the point-cloud simulation (a new, immutable state)."""
     index = state.index(action.object)
-    moved = move_object(state.objects[index], action.x, action.y,
-                        action.theta_place - action.theta_pick)
+    obj = state.objects[index]
+    rotation = action.theta_place - action.theta_pick
+    key = (obj.name, obj.pose, obj.origin, len(obj.points), action.x, action.y, rotation)
+    moved = _MOVED.get(key)
+    if moved is None:
+        if len(_MOVED) > MOVED_LIMIT:
+            _MOVED.clear()
+        moved = _MOVED[key] = move_object(obj, action.x, action.y, rotation)
     objects = state.objects[:index] + (moved,) + state.objects[index + 1:]
     return PlanningState(objects, state.target)
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from tsad_drake.planning.actions import (
     UntriedActions,
+    move_table,
     random_action,
     rederive,
 )
@@ -38,8 +39,15 @@ class EmptyCells:
     def __init__(self, workspace: Workspace) -> None:
         self.workspace = workspace
         self._cache: dict[tuple, np.ndarray] = {}
+        self._counts: dict[tuple, int] = {}  #: state key -> epsilon_s
 
     def __call__(self, state: PlanningState) -> int:
+        count = self._counts.get(state.key())
+        if count is None:
+            count = self._counts[state.key()] = self._count(state)
+        return count
+
+    def _count(self, state: PlanningState) -> int:
         occupied = np.zeros(len(self.workspace.cell_centres), dtype=bool)
         for obj in state.objects:
             key = (obj.name, obj.pose, obj.origin, len(obj.points))
@@ -144,11 +152,12 @@ class SubSearch:
         """
         if node.untried is None:
             state, cells = node.state, self.workspace.cell_centres
-            candidates = [(i, c) for i, o in enumerate(state.objects) if o.name != state.target
-                          for c in range(len(cells))]
-            if not self.feasibility.answers_one_cell:
-                probe = UntriedActions(self.feasibility, state, self.workspace, [], self.theta)
-                candidates = [ic for ic in candidates if probe.check(*ic) is not None]
+            movable = [i for i, o in enumerate(state.objects) if o.name != state.target]
+            if self.feasibility.answers_one_cell:
+                candidates = [(i, c) for i in movable for c in range(len(cells))]
+            else:  # the feasible cells of each object, from its (memoised) move table
+                candidates = [(i, int(c)) for i in movable for c in np.nonzero(~np.isnan(
+                    move_table(self.feasibility, state, i, self.workspace, self.theta)[1]))[0]]
             if self.excluded:
                 candidates = [(i, c) for i, c in candidates
                               if relocation_key(state.objects[i].name, *cells[c])

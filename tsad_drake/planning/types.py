@@ -63,10 +63,16 @@ class PlanningState:
 
     objects: tuple[PlanObject, ...]
     target: str
+    #: `key()`, computed once (states are immutable; every cache of the search is keyed by it)
+    _key: tuple = dc.field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        key = (self.target,) + tuple((o.name, o.x, o.y, o.yaw) for o in self.objects)
+        object.__setattr__(self, "_key", key)
 
     def key(self) -> tuple:
         """Hashable identity of the state (states are immutable): target and object poses."""
-        return (self.target,) + tuple((o.name, o.x, o.y, o.yaw) for o in self.objects)
+        return self._key
 
     def index(self, name: str) -> int:
         for i, obj in enumerate(self.objects):
