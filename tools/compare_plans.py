@@ -86,8 +86,10 @@ def _diff(a, b, path: str = "", added: list[str] | None = None) -> list[str]:
 
 
 def _time_capped(document: dict) -> bool:
-    """A planning call hit its wall-clock safety cap: the plan depends on the machine's load."""
-    return any(r.get("stats", {}).get("time_capped") for r in document.get("rounds", []))
+    """A planning call hit its wall-clock safety stop (`timed_out`; `time_capped` in recordings
+    before 2026-12-03): the outcome depends on the machine's load."""
+    return any(r.get("stats", {}).get("time_capped") or r.get("stats", {}).get("timed_out")
+               for r in document.get("rounds", []))
 
 
 def compare(a: Path, b: Path, only: str = "", allow_added: bool = False) -> int:

@@ -22,7 +22,7 @@ def plan_solvable(scenario: Scenario, max_nodes: int) -> bool:
     after which the target can be taken out, within `max_nodes` expanded nodes (no time limit, so
     the answer does not depend on the machine)."""
     workspace = make_workspace(scenario)
-    config = OptimalConfig(max_nodes=max_nodes, time_limit_s=float("inf"))
+    config = OptimalConfig(max_nodes=max_nodes, safety_stop_s=float("inf"))
     plan = plan_optimal(true_state(scenario), OracleFeasibility(scenario, workspace), workspace,
                         config)
     return plan.success

@@ -10,7 +10,7 @@ feasibility: oracle
 scenarios: ["3"]
 seed_start: 0
 episodes: 1
-set: [planner.time_limit_s=30]
+set: [planner.safety_stop_s=30]
 grid:
   planner.avoid_target_corridor: [false, true]
 """
@@ -23,7 +23,7 @@ def test_sweep_runs_every_grid_point_and_writes_one_page(tmp_path, capsys):
     assert_clean(result, codes=(0,))
     runs = [json.loads((tmp_path / "sweep" / f"3-p{k}.json").read_text()) for k in (0, 1)]
     assert [r["config"]["planner"]["avoid_target_corridor"] for r in runs] == [False, True]
-    assert all(r["config"]["planner"]["time_limit_s"] == 30.0 for r in runs)
+    assert all(r["config"]["planner"]["safety_stop_s"] == 30.0 for r in runs)
     assert runs[0]["spec"]["config_digest"] != runs[1]["spec"]["config_digest"]
     page = (tmp_path / "sweep" / "sweep.md").read_text()
     assert "p0: avoid_target_corridor=false" in page and "p1: avoid_target_corridor=true" in page

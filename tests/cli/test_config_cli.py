@@ -20,7 +20,7 @@ from tsad_drake.run_config import (
 from tsad_drake.scenario import save_scenario
 
 #: a small search whose wall-clock cap never binds, so the plan depends on the seed alone
-BUDGET = ["--set", "planner.iteration_budget=400", "--set", "planner.time_budget_s=600"]
+BUDGET = ["--set", "planner.iteration_budget=400", "--set", "planner.safety_stop_s=600"]
 
 
 def _plan(tmp_path, capsys, out: str, *flags) -> dict:
@@ -57,7 +57,7 @@ def test_a_dumped_config_plans_the_same_as_the_flags_it_came_from(tmp_path, caps
 
 def test_set_changes_the_config_recorded_in_plan_json(tmp_path, capsys):
     doc = _plan(tmp_path, capsys, "out", "--set", "planner.iteration_budget=300", "--set",
-                "planner.time_budget_s=600", "--set", "station.camera.width=96")
+                "planner.safety_stop_s=600", "--set", "station.camera.width=96")
     assert doc["config"]["planner"]["iteration_budget"] == 300
     assert doc["config"]["station"]["camera"]["width"] == 96
     assert set(doc["config"]) == set(SECTIONS)

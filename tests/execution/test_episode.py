@@ -53,7 +53,7 @@ def test_tsad_on_the_shipped_network_retrieves_the_target():
     episode succeeds in the world model (true shapes) and counts its network queries."""
     scenario = generate_scenario("1", 1)
     # the wall-clock cap far away: the iteration budget ends the search on a loaded machine too
-    result = _run(scenario, feasibility="net", config=make_config("tsad", time_budget_s=600.0))
+    result = _run(scenario, feasibility="net", config=make_config("tsad", safety_stop_s=600.0))
     assert result.success and result.falls == 0, result.failure_reason
     assert result.num_actions == len(result.actions) + 1
     assert result.network_evaluations > 0 and result.network_seconds > 0

@@ -110,7 +110,7 @@ def test_gp3_fails_when_there_is_no_free_space(scenes):
     assert not plan.success and plan.theta_star is None
     assert plan.failure_reason.startswith("no free space to place")
     assert plan.actions == []
-    best = plan_optimal(state, oracle, workspace, OptimalConfig(time_limit_s=5.0))
+    best = plan_optimal(state, oracle, workspace, OptimalConfig(safety_stop_s=5.0))
     assert not best.success and not best.stats["optimal_finished"]
 
 
@@ -145,7 +145,7 @@ def test_optimal_respects_its_budget(scenes):
     plan = plan_optimal(state, oracle, workspace, OptimalConfig(max_nodes=1))
     assert not plan.success and not plan.stats["optimal_finished"]
     assert plan.stats["nodes"] <= 1 and plan.failure_reason == "search budget exhausted"
-    plan = plan_optimal(state, oracle, workspace, OptimalConfig(time_limit_s=0.0))
+    plan = plan_optimal(state, oracle, workspace, OptimalConfig(safety_stop_s=0.0))
     assert not plan.success and plan.planning_time_s < 1.0
 
 

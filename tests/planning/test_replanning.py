@@ -36,7 +36,7 @@ def test_closed_loop_asks_tsad_for_one_sub_search_unless_it_looks_ahead():
 
 def test_a_round_back_to_an_earlier_configuration_excludes_every_move_since():
     scene = generate_scenario("1", 1)
-    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", time_budget_s=600.0), True, scene)
+    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", safety_stop_s=600.0), True, scene)
     obj = scene.object("obj7")
     there = Action("obj7", 0.0, 0.05, 0.20, 0.0)
     back = Action("obj7", 0.0, obj.x, obj.y, 0.0)
@@ -52,7 +52,7 @@ def test_a_round_back_to_an_earlier_configuration_excludes_every_move_since():
 def test_rejections_veto_a_pick_angle_or_exclude_a_relocation_and_end_after_the_limit():
     scene = generate_scenario("1", 1)
     workspace = make_workspace(scene)
-    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", time_budget_s=600.0), True, scene,
+    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", safety_stop_s=600.0), True, scene,
                               max_rejections=2)
     pick = Action("obj7", math.radians(10.0), 0.05, 0.20, 0.0)
     place = Action("obj3", 0.0, 0.06, -0.20, 0.0)
@@ -68,14 +68,14 @@ def test_rejections_veto_a_pick_angle_or_exclude_a_relocation_and_end_after_the_
     seen = []
     spec = dc.replace(get_planner("tsad"),
                       plan=lambda *args: seen.append(args[3].excluded_actions) or stub)
-    ReplanningPolicy(spec, make_config("tsad", time_budget_s=600.0), True, scene).plan(None, None, workspace,
+    ReplanningPolicy(spec, make_config("tsad", safety_stop_s=600.0), True, scene).plan(None, None, workspace,
                                                                    np.random.default_rng(0))
     assert seen == [[]]  # a fresh policy excludes nothing
 
 
 def test_the_rest_of_a_plan_is_kept_for_the_next_round_and_dropped_when_cut_short():
     scene = generate_scenario("2", 16)
-    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", time_budget_s=600.0), True, scene)
+    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", safety_stop_s=600.0), True, scene)
     actions = [Action("obj1", 0.0, 0.05, 0.2, 0.0, 0), Action("obj2", 0.0, 0.05, -0.2, 0.0, 1)]
     todo = policy.this_round(Plan("tsad", 0.0, actions, True))
     assert todo == actions[:1] and policy.pending.actions == actions[1:]
@@ -91,7 +91,7 @@ def test_the_rest_of_a_plan_is_not_reused_once_one_of_its_relocations_is_exclude
     workspace = make_workspace(scenario)
     state = state_from_perception(observe_raycast(scenario).scene)
     oracle = make_feasibility("oracle", scenario, workspace)
-    plan = get_planner("tsad").plan(state, oracle, workspace, make_config("tsad", time_budget_s=600.0),
+    plan = get_planner("tsad").plan(state, oracle, workspace, make_config("tsad", safety_stop_s=600.0),
                                     np.random.default_rng(16))
     assert plan.success and len(plan.actions) >= 2
     kept = reused(plan, state, oracle, workspace)

@@ -135,14 +135,15 @@ def test_the_iteration_budget_ends_a_search_the_same_way_on_any_machine(scenes):
     config = dc.replace(CONFIG, iteration_budget=400, **endless)
     plan = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
     assert not plan.success and "budget" in plan.failure_reason
-    assert plan.stats["iterations_total"] == 400 and not plan.stats["time_capped"]
+    assert plan.stats["iterations_total"] == 400 and not plan.timed_out
     again = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
     assert again.actions == plan.actions and again.stats["iterations"] == plan.stats["iterations"]
-    # the wall-clock cap is a safety net behind it
-    config = dc.replace(CONFIG, iteration_budget=10**9, time_budget_s=1.0, **endless)
+    # the wall-clock safety stop behind it makes the call a failure, never a shorter search
+    config = dc.replace(CONFIG, iteration_budget=10**9, safety_stop_s=1.0, **endless)
     t0 = time.perf_counter()
     plan = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
-    assert not plan.success and plan.stats["time_capped"]
+    assert not plan.success and plan.timed_out and plan.stats["timed_out"]
+    assert plan.actions == [] and plan.failure_reason.startswith("timed out")
     assert time.perf_counter() - t0 < 1.0 + 5.0
 
 

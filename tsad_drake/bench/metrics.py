@@ -46,12 +46,20 @@ def summarise(rows: list[dict]) -> dict:
         "falls_all": _mean([r["falls"] for r in rows]),
         "planning_time_median_s": float(statistics.median(times)) if times else None,
         "planning_time_mean_s": _mean(times),
+        "planning_time_max_s": max(times) if times else None,
+        #: episodes a planner call of which reached its wall-clock safety stop (failures)
+        "timed_out": sum(bool(r.get("timed_out")) for r in rows),
         "errors": sum(str(r.get("failure_reason", "")).startswith("error:") for r in rows),
     }
     for key in ("random_actions", "initial_rearrangement_set_size", "motion_feasible_share"):
         values = [r[key] for r in rows if r.get(key) is not None]
         if values:
             summary[f"mean_{key}"] = _mean(values)
+    iterations = [r["search_iterations"] for r in rows if "search_iterations" in r]
+    if iterations:
+        summary["search_iterations_mean"] = _mean(iterations)
+        summary["seconds_per_iteration"] = (sum(times) / sum(iterations)
+                                            if sum(iterations) else None)
     evaluations = sum(r.get("network_evaluations", 0) for r in rows)
     if evaluations:
         seconds = sum(r.get("network_seconds", 0.0) for r in rows)

@@ -11,7 +11,7 @@ is one grid point. Each (grid point, scenario) is one `tsad bench` run written t
     scenarios: ["1", "2"]
     seed_start: 0
     episodes: 10
-    set: [planner.time_budget_s=600]
+    set: [planner.safety_stop_s=600]
     grid:
       planner.iterations: [60, 120, 240]
       planner.exploration: [0.3, 1.0]

@@ -67,11 +67,17 @@ class EpisodeResult:
     falls: int = 0
     fallen: list[str] = dc.field(default_factory=list)
     failure_reason: str = ""
+    #: a planner call reached its wall-clock safety stop: the episode ended there, a failure
+    #: whose outcome depends on the machine (`Budget`); never set when the counts end searches
+    timed_out: bool = False
     planning_time_s: float = 0.0  #: s, summed over every planner call
     #: feasibility queries the network ran (cache misses) and the seconds spent on them
     #: (encoding and forward passes), summed over every round; 0 for the footprint models
     network_evaluations: int = 0
     network_seconds: float = 0.0
+    #: the search's counted work over every round (TSAD: sub-MCTS iterations; ROTS, optimal:
+    #: expanded nodes; GP3: order-search iterations), the unit its budget is counted in
+    search_iterations: int = 0
     theta_star_deg: float | None = None  #: retrieval angle of the last plan
     actions: list[dict] = dc.field(default_factory=list)  #: executed actions, in order
     rounds: list[dict] = dc.field(default_factory=list)  #: per plan: claim vs outcome, stats
@@ -204,6 +210,12 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
             result.random_actions += 1
             continue
         plan = policy.plan(state, feasibility, workspace, rng)
+        if plan.timed_out:
+            result.timed_out = True
+            result.planning_time_s += plan.planning_time_s
+            result.rounds.append(_round_record(plan, 0, world))
+            reason = plan.failure_reason
+            break
         if not plan.success and result.reobservations < limits.reobserve:
             result.planning_time_s += plan.planning_time_s
             result.rounds.append(_round_record(plan, 0, world))
@@ -270,7 +282,17 @@ def _round(world: World, policy: ReplanningPolicy, plan: Plan, state: PlanningSt
     return ""
 
 
+def search_count(stats: dict) -> int:
+    """A planner call's counted search work from its stats (see `EpisodeResult.search_iterations`)."""
+    for key in ("iterations_total", "nodes", "gp3_iterations"):
+        if key in stats:
+            return int(stats[key])
+    return 0
+
+
 def _finish(result: EpisodeResult, world: World, reason: str) -> EpisodeResult:
+    result.search_iterations = sum(search_count(r["stats"]) for r in result.rounds
+                                   if not r["stats"].get("reused"))
     outcome = world.outcome(reason)
     result.success = outcome.success
     result.num_actions = outcome.num_actions - result.random_actions

@@ -19,7 +19,7 @@ from tsad_drake.planning.pointcloud_sim import (
     simulate_pick_place,
 )
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
-from tsad_drake.planning.types import Action, PlanningState, PlanObject, Workspace
+from tsad_drake.planning.types import Action, Plan, PlanningState, PlanObject, Workspace
 
 #: m, where a removed object is parked: far in front of the shelf, out of every corridor
 PARK_X = -10.0
@@ -29,12 +29,19 @@ PARK_SPACING = 1.0
 
 @dc.dataclass
 class Budget:
-    """An iteration (or node) budget and a wall-clock budget, whichever runs out first."""
+    """A count budget (iterations or expanded nodes) that ends a search, and a wall-clock safety
+    stop that aborts it.
+
+    Only the count decides what a search returns, so the same scene, seed and config give the
+    same plan on any machine at any load. A search the safety stop cut is `timed_out`: its
+    planner returns a failure saying so (`timed_out_plan`), never the shorter search's answer.
+    """
 
     max_iterations: int  #: iterations or expanded nodes
-    time_limit_s: float  #: s
+    safety_stop_s: float  #: s, wall clock after which the search is aborted as timed out
     iterations: int = 0
     start: float = dc.field(default_factory=time.perf_counter)
+    timed_out: bool = False  #: the safety stop was reached
 
     def tick(self) -> None:
         self.iterations += 1
@@ -44,7 +51,17 @@ class Budget:
         return time.perf_counter() - self.start
 
     def exhausted(self) -> bool:
-        return self.iterations >= self.max_iterations or self.elapsed >= self.time_limit_s
+        if not self.timed_out and self.elapsed >= self.safety_stop_s:
+            self.timed_out = True
+        return self.timed_out or self.iterations >= self.max_iterations
+
+
+def timed_out_plan(planner: str, budget: Budget, stats: dict) -> Plan:
+    """The failure a planner returns when its search reached the safety stop (no actions)."""
+    reason = (f"timed out: safety stop of {budget.safety_stop_s:g} s reached after "
+              f"{budget.iterations} iterations")
+    return Plan(planner, None, [], False, reason, budget.elapsed, {**stats, "timed_out": True},
+                timed_out=True)
 
 
 def preferred_angle(workspace: Workspace, mask: np.ndarray, prefer: float = 0.0) -> float | None:

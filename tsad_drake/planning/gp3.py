@@ -18,6 +18,7 @@ import numpy as np
 from tsad_drake.planning.actions import choose_theta_pick
 from tsad_drake.planning.baseline_common import (
     Budget,
+    timed_out_plan,
     CellScorer,
     park,
     preferred_angle,
@@ -34,7 +35,9 @@ class GP3Config:
     """Grasp-order MCTS and placement settings."""
 
     iterations: int = 400  #: MCTS iterations (selection, expansion, rollout, backpropagation)
-    time_limit_s: float = 5.0  #: s, wall-clock budget of the order search
+    #: s, wall-clock safety stop of the order search: `iterations` ends it; a search the clock
+    #: stops is a failure (`timed_out`)
+    safety_stop_s: float = 60.0
     exploration: float = 1.0  #: c, UCB exploration coefficient
     discount: float = 0.8  #: reward = discount^removals at a terminal node, 0 at a dead end
     max_depth: int = 9  #: removals per simulated episode
@@ -179,7 +182,7 @@ def gp3_optimal_angle(state: PlanningState, feasibility: FeasibilityModel, works
     config = config or GP3Config()
     rng = rng if rng is not None else np.random.default_rng(0)
     search = _OrderSearch(state, feasibility, workspace, config, rng)
-    budget = Budget(config.iterations, config.time_limit_s)
+    budget = Budget(config.iterations, config.safety_stop_s)
     while not search.root.terminal and not budget.exhausted():
         search.iterate()
         budget.tick()
@@ -187,6 +190,9 @@ def gp3_optimal_angle(state: PlanningState, feasibility: FeasibilityModel, works
             break  # one removal (or none) cannot be beaten
     stats = stats if stats is not None else {}
     stats.update(gp3_iterations=budget.iterations, gp3_time_s=budget.elapsed)
+    if budget.timed_out:
+        stats["gp3_timed_out"] = True
+        return None, ()
     if search.best is None:
         return None, ()
     order = _shorten(state, search.best, feasibility)
@@ -233,9 +239,12 @@ def plan_gp3(state: PlanningState, feasibility: FeasibilityModel, workspace: Wor
              config: GP3Config | None = None, rng: np.random.Generator | None = None) -> Plan:
     """GP3's plan: the grasp order from MCTS, each object placed where most empty cells remain."""
     config = config or GP3Config()
-    budget = Budget(1, math.inf)
+    budget = Budget(1, config.safety_stop_s)
     stats: dict = {}
     theta_star, order = gp3_optimal_angle(state, feasibility, workspace, config, rng, stats)
+    if stats.get("gp3_timed_out"):
+        budget.timed_out = True
+        return timed_out_plan("gp3", budget, stats)
     if theta_star is None:
         return Plan("gp3", None, [], False, "no grasp order frees the target within the budget",
                     budget.elapsed, stats)

@@ -18,6 +18,7 @@ import numpy as np
 from tsad_drake.planning.actions import choose_theta_pick
 from tsad_drake.planning.baseline_common import (
     Budget,
+    timed_out_plan,
     CellScorer,
     preferred_angle,
     reachable_angles,
@@ -33,7 +34,9 @@ class OptimalConfig:
     """Exhaustive-search budget and pruning."""
 
     max_nodes: int = 20_000  #: expanded nodes over all IDA* iterations
-    time_limit_s: float = 30.0  #: s, wall-clock budget
+    #: s, wall-clock safety stop: `max_nodes` ends the search; a search the clock stops is a
+    #: failure (`timed_out`)
+    safety_stop_s: float = 300.0
     max_relocations: int = 8  #: deepest bound tried (relocations, the retrieval not counted)
     cells_per_object: int = 6  #: candidate cells per moved object
 
@@ -42,7 +45,7 @@ class _Search:
     def __init__(self, feasibility: FeasibilityModel, workspace: Workspace,
                  config: OptimalConfig) -> None:
         self.feasibility, self.workspace, self.config = feasibility, workspace, config
-        self.budget = Budget(config.max_nodes, config.time_limit_s)
+        self.budget = Budget(config.max_nodes, config.safety_stop_s)
         self._children: dict[tuple, list[tuple[Action, PlanningState]]] = {}
         self._h: dict[tuple, float] = {}
         self.scorer = CellScorer(workspace)
@@ -140,6 +143,8 @@ def plan_optimal(state: PlanningState, feasibility: FeasibilityModel, workspace:
         bound += 1
     stats["nodes"] = search.budget.iterations
     elapsed = search.budget.elapsed
+    if search.budget.timed_out:
+        return timed_out_plan("optimal", search.budget, stats)
     if found is None:
         reason = ("search budget exhausted" if search.budget.exhausted()
                   else f"no plan within {config.max_relocations} relocations")

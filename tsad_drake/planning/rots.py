@@ -34,7 +34,12 @@ import numpy as np
 
 from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap, side_wall_polygons
 from tsad_drake.planning.actions import choose_theta_pick, rederive
-from tsad_drake.planning.baseline_common import Budget, preferred_angle, target_clear
+from tsad_drake.planning.baseline_common import (
+    Budget,
+    preferred_angle,
+    target_clear,
+    timed_out_plan,
+)
 from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE
 from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.plan_check import action_key
@@ -51,10 +56,9 @@ class ROTSConfig:
     """A* budget, VFH+ histogram and placement pruning of ROTS / ROTS*."""
 
     max_nodes: int = 3_000  #: A* node expansions
-    #: s, wall-clock cap, a safety net only: the node budget ends a search, so the same scene gives
-    #: the same plan on any machine (10 -> 60 on 2026-12-01: ROTS* on scenario 2 seeds 12 and 23
-    #: stopped at 10 s with 2,963 and 2,396 nodes expanded)
-    time_limit_s: float = 60.0
+    #: s, wall-clock safety stop: the node budget ends a search, so the same scene gives the same
+    #: plan on any machine; a search the clock stops is a failure (`timed_out`)
+    safety_stop_s: float = 300.0
     max_relocations: int = 10  #: deepest plan considered
     cells_per_object: int = 4  #: placement candidates per moved object
     histogram_resolution_deg: float = 1.0  #: deg, VFH+ polar histogram bin width
@@ -181,7 +185,7 @@ class _ROTSSearch:
                  config: ROTSConfig) -> None:
         self.feasibility, self.workspace, self.config = feasibility, workspace, config
         self.model = CylinderModel(workspace, config)
-        self.budget = Budget(config.max_nodes, config.time_limit_s)
+        self.budget = Budget(config.max_nodes, config.safety_stop_s)
         self.star = config.check_feasibility and config.check_during_search
         #: steps ROTS*'s check refused, never taken again: (state key, object) for a pick,
         #: (state key, action key) for a relocation
@@ -296,6 +300,8 @@ def plan_rots(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     for _ in range(config.replans + 1 if check else 1):
         actions, theta = search.run(state)
         stats["nodes"] = search.budget.iterations
+        if search.budget.timed_out:
+            return timed_out_plan(name, search.budget, stats)
         if actions is None:
             reason = ("search budget exhausted" if search.budget.exhausted()
                       else "no relocation sequence frees the target")

@@ -32,7 +32,7 @@ import numpy as np
 from tsad_drake.planning.actions import (
     choose_theta_pick,
 )
-from tsad_drake.planning.baseline_common import Budget, reachable_angles
+from tsad_drake.planning.baseline_common import Budget, reachable_angles, timed_out_plan
 from tsad_drake.planning.gp3 import gp3_optimal_angle
 from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.plan_check import (
@@ -115,7 +115,7 @@ def choose_theta_star(state: PlanningState, feasibility: FeasibilityModel, works
 def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
               config: TSADConfig, rng: np.random.Generator) -> Plan:
     """TSAD's plan for taking `state.target` out (a failure result, never an exception or a hang)."""
-    budget = Budget(config.iteration_budget, config.time_budget_s)
+    budget = Budget(config.iteration_budget, config.safety_stop_s)
     extras: Counter[str] = Counter({name: 0 for name in EXTRAS})
     angle_stats: dict = {}
     name = "tsad" if config.use_ro and config.use_re else (
@@ -133,6 +133,9 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     if pick_now is not None:
         return result(pick_now, [], True, rearrangement_set_sizes=[0])
     first = choose_theta_star(state, feasibility, workspace, config, rng, angle_stats)
+    if angle_stats.get("gp3_timed_out"):
+        budget.timed_out = True
+        return timed_out_plan(name, budget, {**angle_stats, "extras_used": extras})
     if first is None:
         return result(None, [], False, "target cannot be grasped at any approach angle"
                       if config.angle_search == "greedy" else "GP3 found no retrieval angle")
@@ -167,12 +170,14 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
                 break
         if len(found) >= config.complete_plans or budget.exhausted():
             break
+    if budget.timed_out:
+        return timed_out_plan(name, budget, {**angle_stats, "iterations_total": budget.iterations,
+                                             "extras_used": dict(extras)})
     chosen = min(found, key=lambda p: len(p.actions)) if found else best  # the first of the shortest
     if found:
         chosen.stats["complete_plans"] = [len(p.actions) for p in found]
     chosen.stats["iterations_total"] = budget.iterations
     chosen.stats["extras_used"] = dict(extras)
-    chosen.stats["time_capped"] = budget.elapsed >= budget.time_limit_s
     chosen.planning_time_s = budget.elapsed  # every attempt, not just the chosen one
     return chosen
 

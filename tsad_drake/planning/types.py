@@ -108,3 +108,5 @@ class Plan:
     failure_reason: str = ""
     planning_time_s: float = 0.0
     stats: dict = dc.field(default_factory=dict)  #: iterations, nodes, |R| per sub-search, ...
+    #: the search reached its wall-clock safety stop (a failure, whatever it had found)
+    timed_out: bool = False

@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         print("error: --episodes must be at least 1", file=sys.stderr)
         return 2
     optimal = dc.replace(OptimalConfig(), max_nodes=args.optimal_nodes,
-                         time_limit_s=args.optimal_time)
+                         safety_stop_s=args.optimal_time)
     rows, summaries = [], {}
     for name in args.scenarios:
         scenario_rows = []

@@ -31,11 +31,11 @@ LOOP_EXTRAS = ("lookahead", "reuse_plans")
 
 
 def configs(only: list[str], closed_loop: bool = True, add: bool = False,
-            time_budget_s: float = 600.0) -> dict[str, EpisodeSettings]:
+            safety_stop_s: float = 600.0) -> dict[str, EpisodeSettings]:
     """The compared configurations by row label: `full`, `paper`, and per extra either `full`
     without it (at its paper value) or, with `add`, `paper` with it (at its full value).
     Every row gets the same wall-clock cap, so the iteration budget ends the searches."""
-    cap = (("time_budget_s", time_budget_s),)
+    cap = (("safety_stop_s", safety_stop_s),)
     base = EpisodeSettings(closed_loop=closed_loop, planner_overrides=cap)
     out = {"full": base, "paper": dc.replace(base, variant="paper")}
     full = TSADConfig()
