@@ -210,7 +210,9 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
                          closed_loop=settings.closed_loop,
                          limits=EpisodeLimits(max_actions=settings.max_actions,
                                               look_again=getattr(config.planner, "look_again", 0),
-                                              reobserve=getattr(config.planner, "reobserve", 0)),
+                                              reobserve=getattr(config.planner, "reobserve", 0),
+                                              reobserve_unsolvable=getattr(
+                                                  config.planner, "reobserve_unsolvable", 0)),
                          action_check=action_check, feasibility_name=settings.feasibility)
     row = result.to_json()
     if settings.motion:

@@ -161,6 +161,10 @@ class EpisodeLimits:
     #: observations of the unchanged scene after a failed plan, before acting on it
     #: (`TSADConfig.reobserve`)
     reobserve: int = 0
+    #: observations of the unchanged scene after a plan that failed as unsolvable (the plan's
+    #: stats say `unsolvable`: `planning.solvability`), before `look_again`
+    #: (`TSADConfig.reobserve_unsolvable`)
+    reobserve_unsolvable: int = 0
 
 
 def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config: Any, seed: int,
@@ -194,6 +198,7 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
                            closed_loop=closed_loop)
     models: list[FeasibilityModel] = []  #: every round's model (one per observation)
     reason = ""
+    unsolvable_looks = 0  #: observations again after unsolvable rounds
     while not world.done and not reason:
         if world.num_actions >= limits.max_actions:
             reason = f"action limit {limits.max_actions} reached"
@@ -216,6 +221,13 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
             result.rounds.append(_round_record(plan, 0, world))
             reason = plan.failure_reason
             break
+        if (not plan.success and plan.stats.get("unsolvable")
+                and unsolvable_looks < limits.reobserve_unsolvable):
+            result.planning_time_s += plan.planning_time_s
+            result.rounds.append(_round_record(plan, 0, world))
+            result.reobservations += 1
+            unsolvable_looks += 1
+            continue
         if not plan.success and result.reobservations < limits.reobserve:
             result.planning_time_s += plan.planning_time_s
             result.rounds.append(_round_record(plan, 0, world))

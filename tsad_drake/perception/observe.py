@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from tsad_drake.geometry2d import edge_normals
 from tsad_drake.perception.footprint import FootprintConfig, fit_footprint
 from tsad_drake.perception.free_space import FreeSpace
 from tsad_drake.perception.pointcloud import CloudConfig, LabelledCloud, views_to_cloud
@@ -98,23 +99,59 @@ def perceive(views: list[View], intrinsics: np.ndarray, scenario: Scenario,
     segments = segment(cloud, segmentation, names, target_label, config.cluster)
     free = (FreeSpace([v.depth for v in views], [v.X_SC for v in views], intrinsics)
             if config.footprint.grow_hidden else None)
-    objects = []
-    for seg in segments:
-        pose = estimate_planar_pose(seg.points, config.pose)
-        if not config.footprint.fitted:
-            objects.append(PerceivedObject(seg.name, seg.points, pose.x, pose.y, pose.yaw,
-                                           is_target=seg.is_target, shape=pose.shape,
-                                           size=tuple(pose.size)))
-            continue
-        fit = fit_footprint(seg.points, pose, config.pose, config.footprint, free)
-        objects.append(PerceivedObject(seg.name, seg.points, fit.x, fit.y, fit.yaw,
-                                       is_target=seg.is_target, shape=fit.shape,
-                                       size=tuple(fit.size), outline=fit.outline,
-                                       uncertainty=fit.uncertainty))
+    objects = [perceived_object(seg.name, seg.points, seg.is_target, config, free)
+               for seg in segments]
     if config.footprint.fitted and config.footprint.explained_points > 0:
         objects = join_explained(objects, config.footprint)
+    if config.footprint.fitted and config.footprint.join_depth > 0:
+        objects = join_interpenetrating(objects, config, free)
     target = next((o.name for o in objects if o.is_target), None)
     return Observation(views, cloud, PerceivedScene(objects, target), segments, segmentation)
+
+
+def perceived_object(name: str, points: np.ndarray, is_target: bool, config: PerceptionConfig,
+                     free: FreeSpace | None) -> PerceivedObject:
+    """One segment's object: its planar pose and, with `config.footprint.fitted`, its outline."""
+    pose = estimate_planar_pose(points, config.pose)
+    if not config.footprint.fitted:
+        return PerceivedObject(name, points, pose.x, pose.y, pose.yaw, is_target=is_target,
+                               shape=pose.shape, size=tuple(pose.size))
+    fit = fit_footprint(points, pose, config.pose, config.footprint, free)
+    return PerceivedObject(name, points, fit.x, fit.y, fit.yaw, is_target=is_target,
+                           shape=fit.shape, size=tuple(fit.size), outline=fit.outline,
+                           uncertainty=fit.uncertainty)
+
+
+def interpenetration(a: np.ndarray, b: np.ndarray) -> float:
+    """m, how deep convex polygons `a` and `b` (counter-clockwise) interpenetrate: the least
+    overlap of their projections over every edge normal (<= 0: apart)."""
+    depth = np.inf
+    for normal in np.concatenate([edge_normals(a), edge_normals(b)]):
+        if normal.any():
+            pa, pb = a @ normal, b @ normal
+            depth = min(depth, float(min(pa.max() - pb.min(), pb.max() - pa.min())))
+    return depth
+
+
+def join_interpenetrating(objects: list[PerceivedObject], config: PerceptionConfig,
+                          free: FreeSpace | None) -> list[PerceivedObject]:
+    """Join every pair of objects whose fitted outlines interpenetrate deeper than
+    `config.footprint.join_depth` into one (points joined, pose and outline fitted again, the
+    bigger segment's name, the target if either was), until no such pair is left."""
+    objects = list(objects)
+    while True:
+        pairs = [(interpenetration(a.outline, b.outline), i, j)
+                 for i, a in enumerate(objects) for j, b in enumerate(objects[:i])
+                 if a.outline is not None and b.outline is not None]
+        deep = [p for p in pairs if p[0] > config.footprint.join_depth]
+        if not deep:
+            return objects
+        _, i, j = max(deep)
+        a, b = objects[i], objects[j]
+        name = a.name if len(a.points) >= len(b.points) else b.name
+        joined = perceived_object(name, np.concatenate([a.points, b.points]),
+                                  a.is_target or b.is_target, config, free)
+        objects = [joined if k == j else o for k, o in enumerate(objects) if k != i]  # j < i
 
 
 def join_explained(objects: list[PerceivedObject], config: FootprintConfig

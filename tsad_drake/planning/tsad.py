@@ -38,6 +38,7 @@ from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.plan_check import (
     shorten_plan,
 )
+from tsad_drake.planning.solvability import unsolvable_reason
 from tsad_drake.planning.tsad_config import EXTRAS, TSADConfig
 from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 from tsad_drake.planning.types import Action, Plan, PlanningState, Workspace
@@ -132,6 +133,11 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     pick_now = choose_theta_pick(feasibility, state, t, workspace, 0.0)
     if pick_now is not None:
         return result(pick_now, [], True, rearrangement_set_sizes=[0])
+    if config.fail_fast:
+        why = unsolvable_reason(state, feasibility)
+        if why:
+            extras["fail_fast"] += 1
+            return result(None, [], False, why, unsolvable=True)
     first = choose_theta_star(state, feasibility, workspace, config, rng, angle_stats)
     if angle_stats.get("gp3_timed_out"):
         budget.timed_out = True
@@ -217,6 +223,12 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
         if sub >= config.max_sub_searches:
             fail(actions, sizes, "sub-search limit reached")
             return None
+        if config.fail_fast and sub > 0:  # a dead end the sub-searches so far walked into
+            why = unsolvable_reason(current, feasibility)
+            if why:
+                extras["fail_fast"] += 1
+                fail(actions, sizes, f"sub-search {sub}: {why}")
+                return None
         search = SubSearch(current, k, feasibility, workspace, config, rng, empty_cells,
                            initial_empty, frozenset(config.excluded_actions))
         search.run(budget)

@@ -101,6 +101,14 @@ class TSADConfig:
     #: cut-off fragment blocking every corridor change with the scene); 0 ends the episode there,
     #: as the paper does (`execution.episode.neighbour_action`)
     look_again: int = 3
+    #: end a call (or back up from a sub-search root) at once when no remove-only sequence can
+    #: free the target (`solvability.unsolvable_reason`: e.g. two pieces of one segmented object
+    #: blocking each other at every angle), with that reason, instead of searching until the
+    #: budget is spent; False searches anyway, as the paper does
+    fail_fast: bool = True
+    #: closed loop: observations of the unchanged scene after a round that failed as unsolvable
+    #: (a segmentation that cut an object apart draws fresh noise), before `look_again`
+    reobserve_unsolvable: int = 2
     #: closed loop: when a plan fails (nothing found, or a sub-search after the first), the
     #: episode observes the unchanged scene again before acting, at most this many times per
     #: episode: each observation draws fresh sensor noise, and a split, merge or fragment that
@@ -115,7 +123,7 @@ PAPER: dict[str, object] = {
     "rollout_bias": 0.0, "lookahead": False, "reuse_plans": False, "shorten": False,
     "complete_plans": 1, "backtrack_width": 1, "fast_rollouts": False, "angle_search": "gp3",
     "keep_rollout_paths": False, "terminal_extraction": False, "negative_empty_reward": False,
-    "look_again": 0,
+    "look_again": 0, "fail_fast": False, "reobserve_unsolvable": 0,
 }
 
 #: the extras, by field name (the keys of `PAPER`)
