@@ -134,9 +134,23 @@ class UntriedActions:
         return move_table(self.feasibility, self.state, index, self.workspace, self.prefer)
 
     def check(self, index: int, cell: int) -> Action | None:
-        """The action moving object `index` to cell `cell`, or None when it is infeasible."""
+        """The action moving object `index` to cell `cell`, or None when it is infeasible.
+
+        A model that `answers_one_cell` (the network) is asked about this cell only: per pick
+        angle in `pick_angles` order, `first_place_option` over [cell], the first answer wins
+        (the same action `cell_moves` gives, at one query per pick angle tried instead of one
+        per cell and pick angle)."""
         obj = self.state.objects[index]
         x, y = self.workspace.cell_centres[cell]
+        if self.feasibility.answers_one_cell:
+            if np.hypot(x - obj.x, y - obj.y) < SAME_PLACE:
+                return None
+            for theta_pick in cached_pick_angles(self.feasibility, self.state, index,
+                                                 self.workspace, self.prefer):
+                found = self.feasibility.first_place_option(self.state, index, theta_pick, [cell])
+                if found is not None:
+                    return Action(obj.name, theta_pick, float(x), float(y), float(found[1]))
+            return None
         theta_pick, theta_place = self.cell_moves(index)
         if np.isnan(theta_place[cell]):
             return None

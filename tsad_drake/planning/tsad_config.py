@@ -76,10 +76,12 @@ class TSADConfig:
     #: no longer dooms the attempt
     backtrack_width: int = 3
     #: rollouts draw their random actions with the feasibility model's cheaper `rollout_model`
-    #: when it has one (the network: its point-cloud placement model), rewards still come from
-    #: the model itself, and a rollout that reaches a terminal state joins the tree only after
-    #: each of its actions is re-derived and checked on the model itself (`SubSearch.recheck`).
-    #: Rollouts were 86% of the network's search time; False asks the network at every step
+    #: when it has one (the network: its point-cloud placement model) and judge their states
+    #: (R, terminal, the relevant objects) on it too; a rollout that reaches a terminal state
+    #: joins the tree only after each of its actions is re-derived and checked, and its end state
+    #: found terminal, on the model itself (`SubSearch.recheck`); tree nodes' rewards always come
+    #: from the model itself. Rollouts were 86% of the network's search time (and its rewards
+    #: most of its queries, 2026-12-03); False asks the network at every step
     fast_rollouts: bool = True
     #: how theta* is chosen: "greedy" ranks the angles by a greedy remove-only sequence
     #: (`tsad.ranked_angles`, fast); "gp3" takes it from GP3's order search (`gp3_optimal_angle`)

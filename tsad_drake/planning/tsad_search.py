@@ -97,6 +97,10 @@ class SubSearch:
         self.theta = float(workspace.approach_angles[theta_index])
         self.empty_cells = empty_cells
         self.target_set = self.rearrangement_set(root)
+        #: R at the root as the rollout model reads it: rollouts judge their states on that
+        #: model alone (a rollout only estimates a value; a terminal path is re-checked)
+        self.rollout_target_set = (self.target_set if self.rollout_model is feasibility else
+                                   rearrangement_set(root, self.rollout_model, self.k))
         ref = empty_cells(root) if config.empty_reference == "sub_root" else initial_empty
         self.reference_empty = ref
         self.root = self.make_node(root, None, None)
@@ -107,12 +111,17 @@ class SubSearch:
         """Names in R_{theta*,s} (names, so sets compare across states)."""
         return rearrangement_set(state, self.feasibility, self.k)
 
-    def reward(self, state: PlanningState) -> tuple[float, bool]:
-        """R(s) = r_t + w_o r_o + w_e r_e and whether s is terminal."""
+    def reward(self, state: PlanningState, rollout: bool = False) -> tuple[float, bool]:
+        """R(s) = r_t + w_o r_o + w_e r_e and whether s is terminal (`rollout`: R as the rollout
+        model reads it)."""
         cfg = self.config
-        current = self.rearrangement_set(state)
-        no_new = current <= self.target_set
-        terminal = no_new and bool(self.target_set - current)
+        if rollout and self.rollout_model is not self.feasibility:
+            current = rearrangement_set(state, self.rollout_model, self.k)
+            target_set = self.rollout_target_set
+        else:
+            current, target_set = self.rearrangement_set(state), self.target_set
+        no_new = current <= target_set
+        terminal = no_new and bool(target_set - current)
         reward = 1.0 if terminal else 0.0
         if cfg.use_ro and not no_new:
             reward -= cfg.w_o
@@ -131,13 +140,14 @@ class SubSearch:
         depth = 0 if parent is None else parent.depth + 1
         return Node(state, action, parent, depth, reward, terminal, reward, has_terminal=terminal)
 
-    def relevant(self, state: PlanningState) -> list[int]:
+    def relevant(self, state: PlanningState, model: FeasibilityModel | None = None) -> list[int]:
         """Indices of R_{theta*,s} and of the objects blocking its members along theta* (the ones
-        in front of them, which must go first)."""
-        members = set(self.feasibility.blockers_at(state, state.target_index, self.k))
+        in front of them, which must go first), as `model` (default: the search's) reads them."""
+        model = model or self.feasibility
+        members = set(model.blockers_at(state, state.target_index, self.k))
         related = set(members)
         for i in members:
-            related |= self.feasibility.blockers_at(state, i, self.k)
+            related |= model.blockers_at(state, i, self.k)
         related.discard(state.target_index)
         return sorted(related)
 
@@ -203,14 +213,14 @@ class SubSearch:
             if cfg.rollout_bias > 0 and self.rng.random() < cfg.rollout_bias:
                 self.extras["rollout_bias"] += 1
                 action = random_action(model, state, self.workspace, self.rng,
-                                       self.theta, among=self.relevant(state))
+                                       self.theta, among=self.relevant(state, model))
             if action is None:
                 action = random_action(model, state, self.workspace, self.rng, self.theta)
             if action is None or action_key(action) in self.excluded:
                 break
             state = simulate_pick_place(state, action)
             path_actions.append((action, state))
-            reward, terminal = self.reward(state)
+            reward, terminal = self.reward(state, rollout=True)
             best = max(best, reward - cfg.step_penalty * step)
             if terminal:
                 if not cfg.keep_rollout_paths:
