@@ -16,10 +16,10 @@ import time
 
 import numpy as np
 
+from tsad_drake.perception.sensor import sensor_config
 from tsad_drake.pipeline import RaycastObserver, make_feasibility
 from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.perception.sensor import sensor_config
 from tsad_drake.scenes import generate_scenario
 
 

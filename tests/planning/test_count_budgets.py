@@ -37,13 +37,14 @@ def busy_cores(count: int = 2):
             hog.wait()
 
 
-# scenario 2 seed 1001 (held out) as a robot senses it: four actions over three sub-searches,
-# about a thousand iterations; scenario 1 seed 1001 on the network: about 900 network queries
-CASES = {"geometric": ["--scenario", "2", "--seed", "1001", "--feasibility", "geometric"],
+# held-out scenes as a robot senses them (realistic, cluster: `tsad plan`'s default): scenario 2
+# seed 1005, two actions, 720 iterations; scenario 1 seed 1001 on the network, about 900 network
+# queries in its first round (three minutes with the load: marked slow)
+CASES = {"geometric": ["--scenario", "2", "--seed", "1005", "--feasibility", "geometric"],
          "net": ["--scenario", "1", "--seed", "1001", "--feasibility", "net"]}
 
 
-@pytest.mark.parametrize("model", sorted(CASES))
+@pytest.mark.parametrize("model", ["geometric", pytest.param("net", marks=pytest.mark.slow)])
 def test_a_plan_is_the_same_under_load(capsys, tmp_path, model):
     documents = []
     for run, load in (("alone", 0), ("loaded", 2)):

@@ -18,12 +18,12 @@ import numpy as np
 from tsad_drake.planning.actions import choose_theta_pick
 from tsad_drake.planning.baseline_common import (
     Budget,
-    timed_out_plan,
     CellScorer,
     park,
     preferred_angle,
     reachable_angles,
     target_clear,
+    timed_out_plan,
 )
 from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
