@@ -121,10 +121,16 @@ def test_same_seed_same_plan(scenes, plans):
 
 def test_unsolvable_scene_is_a_failure_result(scenes):
     scenario, workspace, state = scenes[("walled", 0)]
-    plan = plan_tsad(state, make_feasibility("oracle", scenario, workspace), workspace, CONFIG,
-                     np.random.default_rng(0))
-    assert not plan.success and plan.failure_reason
-    assert plan.stats["iterations_total"] <= CONFIG.iteration_budget
+    oracle = make_feasibility("oracle", scenario, workspace)
+    # the full variant sees before searching that no sequence can free the target
+    plan = plan_tsad(state, oracle, workspace, CONFIG, np.random.default_rng(0))
+    assert not plan.success and plan.failure_reason.startswith("unsolvable")
+    assert plan.stats["unsolvable"] and plan.stats["extras_used"]["fail_fast"] == 1
+    # without the check (the paper's algorithm) the search ends on its count budget
+    searched = plan_tsad(state, oracle, workspace, dc.replace(CONFIG, fail_fast=False),
+                         np.random.default_rng(0))
+    assert not searched.success and searched.failure_reason
+    assert 0 < searched.stats["iterations_total"] <= CONFIG.iteration_budget
 
 
 def test_the_iteration_budget_ends_a_search_the_same_way_on_any_machine(scenes):
@@ -162,8 +168,8 @@ def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypat
 
     monkeypatch.setattr(tsad_module, "_sequential_sub_search", attempt)
     t0 = time.perf_counter()
-    plan = plan_tsad(state, make_feasibility("oracle", scenario, workspace), workspace, CONFIG,
-                     np.random.default_rng(0))
+    plan = plan_tsad(state, make_feasibility("oracle", scenario, workspace), workspace,
+                     dc.replace(CONFIG, fail_fast=False), np.random.default_rng(0))
     wall = time.perf_counter() - t0
     assert not plan.success and len(plan.actions) == 1 and len(calls) >= 3
     assert plan.planning_time_s >= wall - 0.05 >= 0.1 * len(calls) - 0.05

@@ -58,8 +58,8 @@ def summarise(rows: list[dict]) -> dict:
     iterations = [r["search_iterations"] for r in rows if "search_iterations" in r]
     if iterations:
         summary["search_iterations_mean"] = _mean(iterations)
-        summary["seconds_per_iteration"] = (sum(times) / sum(iterations)
-                                            if sum(iterations) else None)
+        summary["planning_time_per_iteration_s"] = (sum(times) / sum(iterations)
+                                                    if sum(iterations) else None)
     evaluations = sum(r.get("network_evaluations", 0) for r in rows)
     if evaluations:
         seconds = sum(r.get("network_seconds", 0.0) for r in rows)
