@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 DEB_PACKAGES := libusb-1.0-0 libegl1 libegl-mesa0 libgl1-mesa-dri libglib2.0-0 libgomp1
 export MESA_SHADER_CACHE_DISABLE := true
 
-.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic bench-frames footprints bench-extra bench-motion bench-real-physics bench-physics bench-noise net-realistic report lint clean
+.PHONY: all setup system-deps demo test test-slow wheel-check bench bench-paper bench-realistic bench-frames footprints bench-extra bench-motion bench-real-physics bench-physics bench-noise net-realistic report cost-curves lint clean
 
 all: test
 
@@ -229,6 +229,12 @@ report: setup
 	$(TSAD) report $(wildcard $(BENCH_DIR)/*.json results/physics/*.json results/perception/*.json) \
 	  --out results/RESULTS.md
 	$(TSAD) report $(wildcard $(BENCH_DIR)/heldout/*.json) --out results/HELDOUT.md
+
+# Planning time and iterations against objects (3-15) and the grid (24-60 cells, shelves
+# 0.50-0.80 m) for TSAD (geometric, network), the baselines and optimal: table and plot in
+# results/cost_curves (docs/benchmark.md quotes them). Resumes where it stopped.
+cost-curves: setup
+	$(PY) -m tsad_drake.bench.studies.cost_curves --out results/cost_curves
 
 lint: setup
 	$(VENV)/bin/ruff check tsad_drake tests

@@ -219,6 +219,9 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
         checks = row["motion_checks"]
         row["motion_feasible_share"] = (sum(c["verified"] for c in checks) / len(checks)
                                         if checks else None)
+    #: s per counted unit of search work (the budget's unit: `search_iterations`)
+    row["planning_time_per_iteration_s"] = (row["planning_time_s"] / row["search_iterations"]
+                                            if row["search_iterations"] else None)
     row["ablation"] = settings.ablation
     row["variant"] = settings.variant
     row["observer"] = settings.observer

@@ -52,7 +52,14 @@ from tsad_drake.geometry2d import (
     width_across,
 )
 from tsad_drake.planning.state import grid_cell_centres
-from tsad_drake.scenario import ObjectConfig, Scenario, ScenarioError, ShelfConfig, validate
+from tsad_drake.scenario import (
+    GridConfig,
+    ObjectConfig,
+    Scenario,
+    ScenarioError,
+    ShelfConfig,
+    validate,
+)
 from tsad_drake.viewpoints import (
     CameraConfig,
     camera_pose,
@@ -321,20 +328,23 @@ def _target_hidden(scenario: Scenario, camera: CameraConfig) -> bool:
 
 def generate_scene(name: str, seed: int, solvable: SolvabilityCheck | None,
                    occluded: bool = False, config: GeneratorConfig | None = None,
-                   camera: CameraConfig | None = None) -> Scenario:
+                   camera: CameraConfig | None = None, shelf: ShelfConfig | None = None,
+                   grid: GridConfig | None = None) -> Scenario:
     """A random scene of built-in scenario `name` ("1", "2", "3" or "real"), reproducible by seed.
 
     `solvable(scene, max_nodes)` is the last check a kept scene passes when the config's
     `solvable_nodes` is positive (`tsad_drake.scenes` gives the `optimal` planner's); None with a
-    positive `solvable_nodes` is an error, so no caller skips the check by accident.
+    positive `solvable_nodes` is an error, so no caller skips the check by accident. `shelf` and
+    `grid` replace the scenario's own (the cost curves' wider shelves and finer grids).
     """
     if solvable is None and (config or scenario_defaults(name)[1]).solvable_nodes:
         raise ValueError("generate_scene needs a solvability check when solvable_nodes > 0")
-    shelf, default_cfg = scenario_defaults(name)
+    default_shelf, default_cfg = scenario_defaults(name)
     cfg = config or default_cfg
     camera = camera or CameraConfig()
     rng = np.random.default_rng([seed, BUILTIN_SCENARIOS.index(name), int(occluded)])
-    base = Scenario(name=name, seed=seed, shelf=shelf, occluded=occluded)
+    base = Scenario(name=name, seed=seed, shelf=shelf or default_shelf, grid=grid or GridConfig(),
+                    occluded=occluded)
     attempts = cfg.occluded_max_attempts if occluded else cfg.max_attempts
     for _ in range(attempts):
         scenario = _attempt(base, cfg, camera, rng, occluded, solvable)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from tsad_drake.planning.feasibility import OracleFeasibility
 from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.state import make_workspace, true_state
-from tsad_drake.scenario import Scenario
+from tsad_drake.scenario import GridConfig, Scenario, ShelfConfig
 from tsad_drake.scenario_generator import BUILTIN_SCENARIOS, GeneratorConfig, generate_scene
 from tsad_drake.viewpoints import CameraConfig
 
@@ -30,6 +30,8 @@ def plan_solvable(scenario: Scenario, max_nodes: int) -> bool:
 
 def generate_scenario(name: str, seed: int, occluded: bool = False,
                       config: GeneratorConfig | None = None,
-                      camera: CameraConfig | None = None) -> Scenario:
-    """A random scene of built-in scenario `name`, reproducible by seed, checked solvable."""
-    return generate_scene(name, seed, plan_solvable, occluded, config, camera)
+                      camera: CameraConfig | None = None, shelf: ShelfConfig | None = None,
+                      grid: GridConfig | None = None) -> Scenario:
+    """A random scene of built-in scenario `name`, reproducible by seed, checked solvable (on
+    `shelf` and `grid` in place of the scenario's own when given)."""
+    return generate_scene(name, seed, plan_solvable, occluded, config, camera, shelf, grid)

@@ -60,6 +60,7 @@ def test_a_plan_is_the_same_under_load(capsys, tmp_path, model):
     assert untimed(alone) == untimed(loaded)
 
 
+@pytest.mark.slow  # about a minute; tests/bench/test_backends.py compares the backends unloaded
 def test_a_bench_gives_the_same_rows_on_both_backends_under_load(tmp_path):
     pytest.importorskip("ray", reason="the ray extra is not installed (make setup installs it)")
     specs = [EpisodeSpec(scenario="2", seed=s, planner="tsad", feasibility="geometric",
