@@ -157,6 +157,28 @@ def _hit_box(o: np.ndarray, d: np.ndarray, p: Prism) -> np.ndarray:
     return np.where(hit, np.where(t_near > 0, t_near, np.inf), np.inf)
 
 
+def _window(p: Prism, camera: CameraConfig, X_SC: np.ndarray) -> np.ndarray | slice:
+    """Indices of the rays (row-major pixels) that can hit prism `p`: those inside the image
+    rectangle around its bounding box's projected corners (a convex prism projects inside the
+    hull of its bounding box's corners); every ray when a corner is not in front of the camera."""
+    half = ((p.size[0], p.size[0]) if p.shape == "cylinder"
+            else (np.hypot(p.size[0], p.size[1]) / 2,) * 2)
+    corners = np.array([[p.x + sx * half[0], p.y + sy * half[1], z]
+                        for sx in (-1, 1) for sy in (-1, 1) for z in (p.z0, p.z1)])
+    local = (corners - X_SC[:3, 3]) @ X_SC[:3, :3]  # in the camera frame
+    if (local[:, 2] <= 1e-6).any():
+        return slice(None)
+    f = camera.focal_length()
+    cx, cy = camera.principal_point()
+    u = f * local[:, 0] / local[:, 2] + cx
+    v = f * local[:, 1] / local[:, 2] + cy
+    c0, c1 = max(int(np.floor(u.min())) - 1, 0), min(int(np.ceil(u.max())) + 2, camera.width)
+    r0, r1 = max(int(np.floor(v.min())) - 1, 0), min(int(np.ceil(v.max())) + 2, camera.height)
+    if c0 >= c1 or r0 >= r1:
+        return np.zeros(0, dtype=int)
+    return (np.arange(r0, r1)[:, None] * camera.width + np.arange(c0, c1)[None, :]).ravel()
+
+
 def raycast(prisms: list[Prism], camera: CameraConfig, X_SC: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray]:
     """Render depth (H, W, metres along the optical axis, inf where nothing) and labels (H, W).
@@ -169,10 +191,11 @@ def raycast(prisms: list[Prism], camera: CameraConfig, X_SC: np.ndarray
     depth = np.full(d.shape[0], np.inf)
     label = np.full(d.shape[0], BACKGROUND_LABEL, dtype=np.int32)
     for p in prisms:
-        t = _hit_cylinder(o, d, p) if p.shape == "cylinder" else _hit_box(o, d, p)
-        closer = t < depth
-        depth = np.where(closer, t, depth)
-        label = np.where(closer, p.label, label)
+        rays = _window(p, camera, X_SC)
+        t = _hit_cylinder(o, d[rays], p) if p.shape == "cylinder" else _hit_box(o, d[rays], p)
+        closer = t < depth[rays]
+        depth[rays] = np.where(closer, t, depth[rays])
+        label[rays] = np.where(closer, p.label, label[rays])
     out_of_range = (depth < camera.near) | (depth > camera.far)
     depth[out_of_range] = np.inf
     label[out_of_range] = BACKGROUND_LABEL

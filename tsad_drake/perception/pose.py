@@ -94,24 +94,24 @@ def _robust_bounds(values: np.ndarray) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def _rect_cost(xy: np.ndarray, yaw: float) -> float:
-    """RMS distance of points to the nearest edge of their (robust) bounding rectangle at `yaw`."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    u = xy @ np.array([c, s])
-    v = xy @ np.array([-s, c])
-    (u0, u1), (v0, v1) = _robust_bounds(u), _robust_bounds(v)
+def _rect_costs(xy: np.ndarray, yaws: np.ndarray) -> np.ndarray:
+    """Per yaw, the RMS distance of points to the nearest edge of their (robust) bounding
+    rectangle at that yaw: every yaw at once, a row of projections per yaw."""
+    c, s = np.cos(yaws)[:, None], np.sin(yaws)[:, None]
+    u = c * xy[:, 0] + s * xy[:, 1]  # (yaws, points)
+    v = c * xy[:, 1] - s * xy[:, 0]
+    (u0, u1), (v0, v1) = (np.percentile(w, [0.5, 99.5], axis=1)[:, :, None] for w in (u, v))
     d = np.minimum(np.minimum(np.abs(u - u0), np.abs(u1 - u)),
                    np.minimum(np.abs(v - v0), np.abs(v1 - v)))
-    return float(np.sqrt(np.mean(d ** 2)))
+    return np.sqrt(np.mean(d ** 2, axis=1))
 
 
 def fit_rectangle_yaw(xy: np.ndarray, step_deg: float = 1.0) -> tuple[float, float]:
     """Yaw in [-pi/4, pi/4) whose bounding rectangle edges the side points lie on best, and rms."""
     coarse = np.radians(np.arange(-45.0, 45.0, step_deg))
-    costs = np.array([_rect_cost(xy, a) for a in coarse])
-    best = coarse[int(np.argmin(costs))]
+    best = coarse[int(np.argmin(_rect_costs(xy, coarse)))]
     fine = best + np.radians(np.linspace(-step_deg, step_deg, 21))
-    fine_costs = np.array([_rect_cost(xy, a) for a in fine])
+    fine_costs = _rect_costs(xy, fine)
     yaw = float(fine[int(np.argmin(fine_costs))])
     yaw = (yaw + np.pi / 4) % (np.pi / 2) - np.pi / 4
     return yaw, float(fine_costs.min())

@@ -28,7 +28,6 @@ measured before then took one, `--set sensor.frames=1`).
 from __future__ import annotations
 
 import dataclasses as dc
-import warnings
 
 import numpy as np
 
@@ -153,6 +152,16 @@ def read_depth(depth: np.ndarray, sensor: SensorConfig, rng: np.random.Generator
                                  for _ in range(sensor.frames)]), sensor)
 
 
+def _finite_median(frames: np.ndarray, finite: np.ndarray, count: np.ndarray) -> np.ndarray:
+    """Per pixel, the median of the finite readings along axis 0 (nan where none): the readings
+    sorted with the missing ones last, the middle one or the mean of the middle two."""
+    ordered = np.sort(np.where(finite, frames, np.inf), axis=0)
+    low = np.take_along_axis(ordered, np.maximum(count - 1, 0)[None] // 2, axis=0)[0]
+    high = np.take_along_axis(ordered, (count // 2)[None], axis=0)[0]
+    high = np.where(count % 2 == 1, low, high)
+    return np.where(count > 0, (low + high) / 2, np.nan)
+
+
 def fuse_frames(frames: np.ndarray, sensor: SensorConfig) -> np.ndarray:
     """(K, H, W) readings of one view -> (H, W): per pixel, inf unless at least half the frames
     read it; else the mean of the readings within 3 sigma (plus one quantisation step) of their
@@ -161,9 +170,7 @@ def fuse_frames(frames: np.ndarray, sensor: SensorConfig) -> np.ndarray:
     finite = np.isfinite(frames)
     count = finite.sum(axis=0)
     kept = count >= max(1, (frames.shape[0] + 1) // 2)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-nan pixels: no reading
-        median = np.nanmedian(np.where(finite, frames, np.nan), axis=0)
+    median = _finite_median(frames, finite, count)
     band = 3.0 * sensor.sigma(np.where(kept, median, 0.0)) + sensor.quantisation
     near = finite & kept & (np.abs(frames - np.where(kept, median, 0.0)) <= band)
     total = np.where(near, frames, 0.0).sum(axis=0)

@@ -47,6 +47,27 @@ def time_station(scenario: Scenario, segmentation: str, repeats: int = 3
     return build, best_time(lambda: observe(station, segmentation=segmentation), repeats)
 
 
+def heldout_observations(seeds: int) -> list[float]:
+    """Seconds of one observation as the robot senses (realistic sensor, its frames fused per
+    view, `cluster` segmentation, the perception config for that sensor; ray caster) per scene of
+    scenarios 1-3, held-out seeds 1000 on (one untimed observation first)."""
+    from tsad_drake.perception.observe import perception_config
+    from tsad_drake.perception.sensor import sensor_config
+
+    sensor = sensor_config("realistic")
+    config = perception_config(sensor)
+    times = []
+    for k, (name, seed) in enumerate((n, s) for n in ("1", "2", "3")
+                                     for s in range(1000, 1000 + seeds)):
+        scenario = generate_scenario(name, seed)
+        for _ in range(2 if k == 0 else 1):
+            start = time.perf_counter()
+            observe_raycast(scenario, segmentation="cluster", config=config, sensor=sensor,
+                            noise_seed=seed)
+        times.append(time.perf_counter() - start)
+    return times
+
+
 def _wrap_quarter(angle: float) -> float:
     """Angle difference folded into [-pi/4, pi/4) (a box's yaw is known modulo 90 degrees)."""
     return (angle + math.pi / 4) % (math.pi / 2) - math.pi / 4
@@ -108,7 +129,15 @@ def main(argv: list[str] | None = None) -> None:
                         help="seeds per scenario 1-3 for the accuracy table (0: skip it)")
     parser.add_argument("--noise-mm", type=float, default=1.0,
                         help="depth noise (std, mm) of the second accuracy row")
+    parser.add_argument("--heldout", type=int, default=10,
+                        help="seeds (1000 on) per scenario 1-3 of the realistic-sensing "
+                             "observation timing (0: skip it)")
     args = parser.parse_args(argv)
+    if args.heldout > 0:
+        times = heldout_observations(args.heldout)
+        print(f"one observation as the robot senses it (realistic, fused frames, cluster, ray "
+              f"caster), scenarios 1-3 seeds 1000-{999 + args.heldout}: median "
+              f"{np.median(times):.3f} s, worst {max(times):.3f} s over {len(times)} scenes")
 
     scenario = generate_scenario(args.scenario, args.seed)
     views = len(scenario.approach_angles)
