@@ -92,10 +92,18 @@ def completed_footprint_points(obj: PlanObject) -> np.ndarray:
 def occupied_cells(points_xy: np.ndarray, cell_centres: np.ndarray,
                    min_empty_distance: float) -> np.ndarray:
     """(C,) True for the cells with at least one of `points_xy` within d_min of their centre."""
+    occupied = np.zeros(len(cell_centres), dtype=bool)
     if len(points_xy) == 0:
-        return np.zeros(len(cell_centres), dtype=bool)
-    d2 = np.sum((cell_centres[:, None, :] - points_xy[None, :, :]) ** 2, axis=2)
-    return np.any(d2 < min_empty_distance ** 2, axis=1)
+        return occupied
+    # only cells within d_min of the points' bounding box can hold a point within d_min (the
+    # test below decides those exactly; the slack keeps rounding from dropping a cell)
+    gap = np.maximum(np.maximum(points_xy.min(axis=0) - cell_centres,
+                                cell_centres - points_xy.max(axis=0)), 0.0)
+    near = np.nonzero(np.sum(gap ** 2, axis=1) < min_empty_distance ** 2 + 1e-12)[0]
+    if len(near):
+        d2 = np.sum((cell_centres[near, None, :] - points_xy[None, :, :]) ** 2, axis=2)
+        occupied[near] = np.any(d2 < min_empty_distance ** 2, axis=1)
+    return occupied
 
 
 def empty_cell_count(state: PlanningState, workspace: Workspace) -> int:
