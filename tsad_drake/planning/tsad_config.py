@@ -34,8 +34,9 @@ class TSADConfig:
     widening: float | None = 3.0  #: children <= widening * sqrt(N(s)); None: expand all first
     max_sub_searches: int = 12  #: sub-MCTS runs before giving up
     #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
-    #: search, so the same seed gives the same plan on any machine (700-1,400 iterations/s on
-    #: scenario 2 on a 2-core machine; a five-blocker scene needs about 9,000 for a first plan)
+    #: search, so the same seed gives the same plan on any machine (held-out realistic rows,
+    #: 2026-12-04: 0.7-2.4 ms an iteration on the geometric model, 4-9 ms on the network, two
+    #: bench processes on 2 cores; a five-blocker scene needs about 9,000 for a first plan)
     iteration_budget: int = 20_000
     #: s, wall-clock safety stop of one plan_tsad call: the counts above end a search; a call the
     #: clock stops is a failure (`Plan.timed_out`, "timed out: ..."), never the plan it had so far
