@@ -216,6 +216,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
                                world=args.world, config=config)
     result = plan_episode(scenario, args.seed, settings, out, meshcat=meshcat)
     result["threads"] = args.threads
+    from tsad_drake.plan_format import plan_from_episode
+
+    # the executed plan in the tsad-plan/1 format, for `tsad verify` (docs/plan-format.md)
+    plan_path = out.write_text("plan.tsad.json",
+                               json.dumps(plan_from_episode(scenario, result), indent=2))
     path = out.write_text("plan.json", json.dumps(result, indent=2))
     print(f"planner {args.planner} ({args.feasibility}) on scenario {scenario.name} seed "
           f"{args.seed}: theta* = {result.get('theta_star_deg')} deg")
@@ -244,7 +249,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     verdict = "target retrieved" if result["success"] else f"FAILED: {result['failure_reason']}"
     print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
           f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")
-    print(f"wrote {path}")
+    print(f"wrote {path} and {plan_path} (the plan for `tsad verify`)")
     if meshcat is not None:
         hold_meshcat(meshcat)
     return 0 if result["success"] else 1
