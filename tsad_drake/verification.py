@@ -27,7 +27,7 @@ from typing import Any
 from tsad_drake.execution.episode import physics_record
 from tsad_drake.execution.world import GeometricWorld, retrieval_angles
 from tsad_drake.motion.causes import failure_cause
-from tsad_drake.motion.verify import ActionMotion, ready_q, retrieval_motion
+from tsad_drake.motion.verify import ActionMotion, is_pick_failure, ready_q, retrieval_motion
 from tsad_drake.motion.verify import verify_plan as verify_motions
 from tsad_drake.plan_format import action_json, check_actions
 from tsad_drake.planning.types import Action
@@ -55,6 +55,7 @@ class ActionVerdict:
     cause: dict | None = None  #: `failure_cause(failure)` of a refusal
     planning_time_s: float = 0.0  #: s, wall-clock time of the action's motion planning
     outcome: dict | None = None  #: what the world did (world geometric or physics), else None
+    segments: list[str] = dc.field(default_factory=list)  #: names of the verified segments
 
     @property
     def ok(self) -> bool:
@@ -65,7 +66,8 @@ class ActionVerdict:
         return {"index": self.index, **action_json(self.action), "status": self.status,
                 "verified": self.status == "verified", "skipped": self.skipped,
                 "failure": self.failure, "cause": self.cause,
-                "planning_time_s": round(self.planning_time_s, 4), "world": self.outcome}
+                "planning_time_s": round(self.planning_time_s, 4), "segments": self.segments,
+                "world": self.outcome}
 
 
 @dc.dataclass
@@ -131,6 +133,11 @@ class VerificationReport:
                 "motion_planning_time_s": round(sum(self.planning_times), 4)}
 
 
+def _cause(failure: str) -> dict:
+    """`failure_cause` with the half of the action (pick or place) the failure lies in."""
+    return failure_cause(("pick: " if is_pick_failure(failure) else "place: ") + failure)
+
+
 def _verdicts(actions: list[Action], motions: list[ActionMotion], keep_going: bool
               ) -> list[ActionVerdict]:
     verdicts = []
@@ -141,8 +148,9 @@ def _verdicts(actions: list[Action], motions: list[ActionMotion], keep_going: bo
         m = motions[i]
         verdicts.append(ActionVerdict(i, action, "verified" if m.verified else "refused",
                                       skipped=keep_going and not m.verified, failure=m.failure,
-                                      cause=None if m.verified else failure_cause(m.failure),
-                                      planning_time_s=m.planning_time_s))
+                                      cause=None if m.verified else _cause(m.failure),
+                                      planning_time_s=m.planning_time_s,
+                                      segments=[seg.name for seg in m.segments]))
     return verdicts
 
 
@@ -171,7 +179,7 @@ def _verify_retrieval(scenario: Scenario, motions: list[ActionMotion], theta: fl
         verdict.tried.append({"theta_deg": round(math.degrees(angle), 6),
                               "failure": motion.failure})
         if verdict.cause is None:
-            verdict.cause = failure_cause(motion.failure)
+            verdict.cause = _cause(motion.failure)
     verdict.failure = "; ".join(f"{r['theta_deg']:g} deg: {r['failure']}" for r in verdict.tried)
     return verdict, None
 
