@@ -212,10 +212,11 @@ def load_plan(path: str | Path) -> PlanDocument:
 
 
 def action_json(action: Action) -> dict:
-    """An Action as a `tsad-plan/1` action record (degrees)."""
-    return {"object": action.object, "theta_pick_deg": round(math.degrees(action.theta_pick), 6),
-            "place_xy": [round(float(action.x), 6), round(float(action.y), 6)],
-            "theta_place_deg": round(math.degrees(action.theta_place), 6),
+    """An Action as a `tsad-plan/1` action record (degrees; full precision, so that the file
+    reads back to the same action up to the last bit of the angle conversion)."""
+    return {"object": action.object, "theta_pick_deg": math.degrees(action.theta_pick),
+            "place_xy": [float(action.x), float(action.y)],
+            "theta_place_deg": math.degrees(action.theta_place),
             "sub_search": int(action.sub_search)}
 
 
@@ -228,7 +229,7 @@ def plan_json(scenario: Scenario | str, actions: list[Action], retrieve_target: 
                 "actions": [action_json(a) for a in actions],
                 "retrieve_target": bool(retrieve_target)}
     if theta_retrieve is not None:
-        document["theta_retrieve_deg"] = round(math.degrees(theta_retrieve), 6)
+        document["theta_retrieve_deg"] = math.degrees(theta_retrieve)
     if meta:
         document["meta"] = meta
     return document
