@@ -82,3 +82,22 @@ def test_plan_from_episode_takes_the_true_objects_and_the_retrieval():
     plan = parse_plan(json.loads(json.dumps(document)))
     assert [a.object for a in plan.actions] == ["a"]
     assert not plan_from_episode(_scene(), {**row, "success": False})["retrieve_target"]
+
+
+def test_the_documented_example_is_a_valid_plan():
+    import re
+
+    text = (ROOT / "docs" / "plan-format.md").read_text()
+    example = json.loads(re.search(r"```json\n(.*?)```", text, re.S).group(1))
+    plan = parse_plan(example)
+    assert [a.object for a in plan.actions] == ["front", "side"] and plan.retrieve_target
+    # the example script writes this very plan
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "verify_hand_made_plan", ROOT / "examples" / "verify_hand_made_plan.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert plan.scenario == parse_plan(plan_json(module.scene(), [])).scenario
+    assert all(math.isclose(a.theta_pick, b.theta_pick) and (a.object, a.x, a.y) == (b.object, b.x, b.y)
+               for a, b in zip(plan.actions, module.ACTIONS, strict=True))

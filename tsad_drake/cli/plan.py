@@ -102,7 +102,9 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                            "Observe the scene (by default as a robot would: realistic depth, "
                            "eight frames per view, cluster segmentation), plan with the chosen "
                            "planner and feasibility model, execute in the world model (closed "
-                           "loop: re-observe after each sub-search) and write DIR/plan.json. "
+                           "loop: re-observe after each sub-search) and write DIR/plan.json, and the "
+                           "executed plan as DIR/plan.tsad.json (the tsad-plan/1 format "
+                           "`tsad verify` checks). "
                            "Exit 0 on success, 1 when the target could not be retrieved (the "
                            "JSON says why)."))
     add_scenario_args(p)
