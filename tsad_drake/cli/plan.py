@@ -248,10 +248,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
                   f"{out / 'planned_replay.html'} (the verified plan) and {out / 'scene.dmd.yaml'}")
         else:
             print(f"wrote {out / 'replay.html'} and {out / 'scene.dmd.yaml'}")
+    print(f"wrote {plan_path} (the executed plan, for `tsad verify`)")
     verdict = "target retrieved" if result["success"] else f"FAILED: {result['failure_reason']}"
     print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
           f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")
-    print(f"wrote {path} and {plan_path} (the plan for `tsad verify`)")
+    print(f"wrote {path}")
     if meshcat is not None:
         hold_meshcat(meshcat)
     return 0 if result["success"] else 1
