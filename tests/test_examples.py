@@ -90,3 +90,55 @@ def test_sweep_parameter_changes_the_search_it_names():
     # the paper variant runs each sub-search for exactly the swept number of iterations
     for r in rows:
         assert r["sub_search_iterations"] and set(r["sub_search_iterations"]) == {r["value"]}
+
+
+def test_verify_hand_made_plan_writes_and_verifies_its_plan(tmp_path):
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "verify_hand_made_plan.py"),
+                          str(tmp_path / "out")], capture_output=True, text=True, timeout=600,
+                         cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.splitlines()[-1] == "plan verified", run.stdout
+    import json
+
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert [a["status"] for a in report["actions"]] == ["verified", "verified"]
+    assert report["retrieval"]["world"]["retrieved"]
+
+
+def test_pddl_steps_become_a_plan_tsad_verify_reads(tmp_path):
+    import math
+
+    import pytest
+
+    from tsad_drake.plan_format import load_plan, plan_json
+    from tsad_drake.planning.types import Action
+    from tsad_drake.scenario import save_scenario
+
+    example = _load("pddl_to_plan")
+    actions, retrieve = example.pddl_actions(
+        "(pick obj2 0.0) (place obj2 0.10 -0.05 0.3)\n(pick obj0 -0.17) (place obj0 0.07 0.2 0)"
+        " (retrieve target)")
+    assert actions == [Action("obj2", 0.0, 0.10, -0.05, 0.3), Action("obj0", -0.17, 0.07, 0.2, 0.0)]
+    assert retrieve
+    for bad in ("(pick obj2 0.0)", "(place obj2 0.1 0.1 0)", "(pick obj2 0) (place obj3 0 0 0)",
+                "(pick obj2 zero)", "(retrieve t) (pick a 0)", "pick obj2 0", ""):
+        with pytest.raises(ValueError):
+            example.pddl_actions(bad)
+    from frozen_scenes import load_scene
+
+    scenario = load_scene("1", 0)
+    save_scenario(scenario, tmp_path / "scene.yaml")
+    names = [o.name for o in scenario.objects if o.name != scenario.target]
+    (tmp_path / "steps.txt").write_text(f"(pick {names[0]} 0.0) (place {names[0]} 0.10 -0.05 0.3)")
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "pddl_to_plan.py"), "steps.txt",
+                          "scene.yaml", "plan.tsad.json"], capture_output=True, text=True,
+                         timeout=600, cwd=tmp_path)
+    assert run.returncode == 0, run.stderr[-2000:]
+    plan = load_plan(tmp_path / "plan.tsad.json")
+    (action,) = plan.actions
+    assert (action.object, action.theta_pick, action.x, action.y) == (names[0], 0.0, 0.10, -0.05)
+    assert math.isclose(action.theta_place, 0.3, abs_tol=1e-12) and not plan.retrieve_target
+    assert plan.scenario.objects == scenario.objects
+    # the degrees in the file round-trip to the radians of the steps
+    assert math.isclose(plan_json(scenario, plan.actions)["actions"][0]["theta_place_deg"],
+                        math.degrees(0.3), abs_tol=1e-6)

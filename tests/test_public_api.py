@@ -14,6 +14,15 @@ def test_every_public_name_resolves_to_its_module(name):
     assert value.__module__.startswith("tsad_drake") and name in dir(td)
 
 
+def test_verify_plan_is_the_plan_verifier_with_a_report():
+    """`td.verify_plan` is `tsad verify`'s (the motion level alone stays in motion.verify)."""
+    assert td.verify_plan.__module__ == "tsad_drake.verification"
+    assert td.VerificationReport.__module__ == "tsad_drake.verification"
+    from tsad_drake.motion import verify
+
+    assert verify.verify_plan is not td.verify_plan
+
+
 def test_unknown_names_are_attribute_errors():
     with pytest.raises(AttributeError, match="no attribute 'plan_tsad'"):
         td.plan_tsad  # noqa: B018

@@ -14,7 +14,11 @@ The public API, importable from `tsad_drake` directly (each name is loaded on fi
                   dump_run_config(config); EpisodeSettings(config=...) runs with it
     episodes      EpisodeSettings, plan_episode(scenario, seed, settings) -> plan.json document,
                   run_episode(world, planner, model_factory, config, seed), World, GeometricWorld
-    motion        verify_plan(scenario, actions), write_replay_html(scenario, actions, motions, path)
+    verification  verify_plan(scenario, actions, world="none"|"geometric"|"physics") ->
+                  VerificationReport (.to_json(): `tsad verify`'s report.json); plans as files:
+                  load_plan(path) -> PlanDocument, plan_json(scenario, actions) (tsad-plan/1)
+    motion        write_replay_html(scenario, actions, motions, path); the motion level alone:
+                  tsad_drake.motion.verify.verify_plan(scenario, actions) -> [ActionMotion]
 
     >>> import tsad_drake as td
     >>> doc = td.plan_episode(td.generate_scenario("1", 0), 0, td.EpisodeSettings())
@@ -57,7 +61,11 @@ _PUBLIC = {
     "run_episode": "tsad_drake.execution.episode",
     "World": "tsad_drake.execution.world",
     "GeometricWorld": "tsad_drake.execution.world",
-    "verify_plan": "tsad_drake.motion.verify",
+    "verify_plan": "tsad_drake.verification",
+    "VerificationReport": "tsad_drake.verification",
+    "load_plan": "tsad_drake.plan_format",
+    "plan_json": "tsad_drake.plan_format",
+    "PlanDocument": "tsad_drake.plan_format",
     "write_replay_html": "tsad_drake.motion.replay",
 }
 

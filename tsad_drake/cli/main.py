@@ -1,4 +1,4 @@
-"""`tsad` command line: render, scene, plan, bench, report, config and the network commands.
+"""`tsad` command line: render, scene, plan, verify, bench, report, config and the network commands.
 
 Bad input ends with one line on stderr and exit status 2; a planning failure is a result
 (exit status 1, the JSON says why).
@@ -85,8 +85,10 @@ def build_parser() -> argparse.ArgumentParser:
     from tsad_drake.cli.net import add_net_parsers
     from tsad_drake.cli.plan import add_plan_parsers
     from tsad_drake.cli.sweep import add_sweep_parser
+    from tsad_drake.cli.verify import add_verify_parser
 
     add_plan_parsers(sub, add_scenario_args)
+    add_verify_parser(sub)
     add_sweep_parser(sub)
     add_net_parsers(sub)
     return parser
@@ -128,9 +130,10 @@ def main(argv: list[str] | None = None) -> int:
     from tsad_drake.cli.net import NET_COMMANDS
     from tsad_drake.cli.plan import PLAN_COMMANDS
     from tsad_drake.cli.sweep import SWEEP_COMMANDS
+    from tsad_drake.cli.verify import VERIFY_COMMANDS
 
-    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS, **SWEEP_COMMANDS,
-                **NET_COMMANDS}
+    commands = {"scene": cmd_scene, "render": cmd_render, **PLAN_COMMANDS, **VERIFY_COMMANDS,
+                **SWEEP_COMMANDS, **NET_COMMANDS}
     try:
         return commands[args.command](args)
     except UsageError as err:

@@ -102,7 +102,9 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                            "Observe the scene (by default as a robot would: realistic depth, "
                            "eight frames per view, cluster segmentation), plan with the chosen "
                            "planner and feasibility model, execute in the world model (closed "
-                           "loop: re-observe after each sub-search) and write DIR/plan.json. "
+                           "loop: re-observe after each sub-search) and write DIR/plan.json, and the "
+                           "executed plan as DIR/plan.tsad.json (the tsad-plan/1 format "
+                           "`tsad verify` checks). "
                            "Exit 0 on success, 1 when the target could not be retrieved (the "
                            "JSON says why)."))
     add_scenario_args(p)
@@ -216,6 +218,11 @@ def cmd_plan(args: argparse.Namespace) -> int:
                                world=args.world, config=config)
     result = plan_episode(scenario, args.seed, settings, out, meshcat=meshcat)
     result["threads"] = args.threads
+    from tsad_drake.plan_format import plan_from_episode
+
+    # the executed plan in the tsad-plan/1 format, for `tsad verify` (docs/plan-format.md)
+    plan_path = out.write_text("plan.tsad.json",
+                               json.dumps(plan_from_episode(scenario, result), indent=2))
     path = out.write_text("plan.json", json.dumps(result, indent=2))
     print(f"planner {args.planner} ({args.feasibility}) on scenario {scenario.name} seed "
           f"{args.seed}: theta* = {result.get('theta_star_deg')} deg")
@@ -241,6 +248,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
                   f"{out / 'planned_replay.html'} (the verified plan) and {out / 'scene.dmd.yaml'}")
         else:
             print(f"wrote {out / 'replay.html'} and {out / 'scene.dmd.yaml'}")
+    print(f"wrote {plan_path} (the executed plan, for `tsad verify`)")
     verdict = "target retrieved" if result["success"] else f"FAILED: {result['failure_reason']}"
     print(f"{verdict}; {result['num_actions']} actions (target retrieval included), "
           f"{result['falls']} falls, planning {result['planning_time_s']:.2f} s")

@@ -69,7 +69,9 @@ class ActionOutcome:
     welded: bool | None = None  #: weld grasp mode: both fingers touched and the weld held it
     tracking_error: float | None = None  #: rad, largest arm joint error against the command
     tracking_joint: str = ""  #: the joint where it occurred
-    aimed_at: str = ""  #: "perceived" or "true": the object poses the motion was planned on
+    #: "perceived" or "true": the object poses the motion was planned on; "plan": a motion
+    #: planned elsewhere on the plan's own scene (`PhysicsWorld.execute_motion`, `tsad verify`)
+    aimed_at: str = ""
     aim_error_mm: float | None = None  #: mm, believed centre of the picked object to the true one
     sim_seconds: float = 0.0  #: s, simulated time of the action (settling included)
     wall_seconds: float = 0.0  #: s, wall-clock time of the simulation (planning excluded)
@@ -239,3 +241,13 @@ class GeometricWorld(World):
         place_corridor = self.corridor(moved.x, moved.y, action.theta_place)
         self._knock(self.touched(place_corridor, moved.name) + self.touched(poly, moved.name))
         return True, ""
+
+
+def retrieval_angles(scenario: Scenario) -> list[float]:
+    """The angles (rad) to try taking the target out at, best first: the corridor rule's clear
+    angle on `scenario` (`GeometricWorld.retrieval_angle`), then every approach angle by |theta|."""
+    clear = GeometricWorld(scenario).retrieval_angle()
+    angles = sorted((float(a) for a in scenario.approach_angles), key=abs)
+    if clear is None:
+        return angles
+    return [clear] + [a for a in angles if abs(a - clear) > 1e-9]

@@ -356,15 +356,23 @@ def ready_q(scenario: Scenario, objects: list[ObjectConfig], config: MotionConfi
                           np.asarray(config.home_q), FINGER_OPEN)
 
 
+#: what `verify_plan` does after an action without a motion
+ON_FAILURE = ("move", "skip", "stop")
+
+
 def verify_plan(scenario: Scenario, actions: list[Action], config: MotionConfig | None = None,
                 X_WS: RigidTransform | None = None,
-                progress=None) -> list[ActionMotion]:
+                progress=None, on_failure: str = "move") -> list[ActionMotion]:
     """Plan and verify each action in turn on the true scene (see the module docstring).
 
-    Actions must name true objects. After a failed action the arm restarts from the ready
-    configuration and the object is still moved (as the symbolic world model moves it).
-    `progress(i, motion)`, if given, is called after each action.
+    Actions must name true objects. After a failed action, with `on_failure` "move" (default),
+    the arm restarts from the ready configuration and the object is still moved (as the symbolic
+    world model moves it); "skip": the action is skipped (the arm stays where it was, the object
+    where it stood); "stop": no later action is planned (the failed one is the last motion
+    returned). `progress(i, motion)`, if given, is called after each action.
     """
+    if on_failure not in ON_FAILURE:
+        raise ValueError(f"on_failure must be one of {', '.join(ON_FAILURE)}, got {on_failure!r}")
     config = config or MotionConfig()
     X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
     objects = copy.deepcopy(scenario.objects)
@@ -377,13 +385,38 @@ def verify_plan(scenario: Scenario, actions: list[Action], config: MotionConfig 
             segment.times = segment.times + t
         if motion.verified:
             q, t = motion.end_q, motion.segments[-1].times[-1]
-        else:
-            q = ready
-        objects = motion.objects_after
+            objects = motion.objects_after
+        elif on_failure == "move":
+            q, objects = ready, motion.objects_after
         motions.append(motion)
         if progress is not None:
             progress(i, motion)
+        if not motion.verified and on_failure == "stop":
+            break
     return motions
+
+
+#: the segment that ends with the object lifted out of the shelf (the end of a retrieval)
+RETREAT_SEGMENT = "lift->retreat"
+
+
+def retrieval_motion(scenario: Scenario, objects: list[ObjectConfig], target: str, theta: float,
+                     q_start: np.ndarray, config: MotionConfig | None = None,
+                     X_WS: RigidTransform | None = None) -> ActionMotion:
+    """Taking `target` out of the shelf at approach angle `theta` from q_start: the pick half of
+    a pick-and-place of the target (approach, grasp, lift, retreat out of the shelf), planned as
+    the whole action (placed back where it stands, so the same keyframes are solved) and cut
+    after the retreat. Never raises for a motion failure (`verified` False, the reason named)."""
+    target_obj = next((o for o in objects if o.name == target), None)
+    if target_obj is None:
+        raise ValueError(f"no object named {target!r} among the objects")
+    action = Action(target, theta, target_obj.x, target_obj.y, theta)
+    motion = plan_action(scenario, objects, action, q_start, config, X_WS)
+    if motion.verified:
+        names = [s.name for s in motion.segments]
+        motion = dc.replace(motion, segments=motion.segments[:names.index(RETREAT_SEGMENT) + 1],
+                            objects_after=list(objects))
+    return motion
 
 
 def motion_check(scenario: Scenario, action: Action, config: MotionConfig | None = None,

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.math import RigidTransform
 
-from tsad_drake.execution.world import ActionOutcome, GeometricWorld, World
+from tsad_drake.execution.world import ActionOutcome, GeometricWorld, World, retrieval_angles
 from tsad_drake.motion.causes import cause_label, failure_cause
 from tsad_drake.motion.scene import MotionConfig
 from tsad_drake.motion.verify import (
@@ -41,6 +41,7 @@ from tsad_drake.motion.verify import (
     MotionFailure,
     plan_action,
     ready_q,
+    retrieval_motion,
     transfer_segment,
 )
 from tsad_drake.perception.observe import PerceptionConfig
@@ -65,8 +66,6 @@ from tsad_drake.station_models import UR5E_JOINTS
 #: segment after which the fingers hold the object, and the one after which it has been lifted
 CLOSE_SEGMENT = "close"
 LIFT_SEGMENT = "grasp->lift"
-#: the segment that ends with the object lifted out of the shelf (the end of a retrieval)
-RETREAT_SEGMENT = "lift->retreat"
 #: the segment that ends with the object at the place point, before the fingers open
 PLACE_SEGMENT = "place_above->place"
 
@@ -290,21 +289,13 @@ class PhysicsWorld(World):
                           ) -> tuple[ActionMotion | None, str]:
         """The pick half (through the retreat) of a motion taking the target, or None and why
         each angle was refused (where and which bodies)."""
-        believed = next(o for o in objects if o.name == target)
         scene = dc.replace(copy.deepcopy(self._start), objects=copy.deepcopy(objects))
-        clear = GeometricWorld(scene).retrieval_angle()
-        angles = sorted((float(a) for a in self._start.approach_angles), key=abs)
-        if clear is not None:
-            angles = [clear] + [a for a in angles if abs(a - clear) > 1e-9]
         refused = []
-        for theta in angles:
-            action = Action(target, theta, believed.x, believed.y, theta)
-            motion = plan_action(self._start, objects, action, self.q_command,
-                                 self.motion_config, self.X_WS)
+        for theta in retrieval_angles(scene):
+            motion = retrieval_motion(self._start, objects, target, theta, self.q_command,
+                                      self.motion_config, self.X_WS)
             if motion.verified:
-                names = [s.name for s in motion.segments]
-                return dc.replace(motion, segments=motion.segments[
-                    :names.index(RETREAT_SEGMENT) + 1]), ""
+                return motion, ""
             cause = failure_cause(motion.failure)
             parts = [f"{math.degrees(theta):.0f} deg", cause["where"],
                      " vs ".join(cause["bodies"]) or cause_label(cause)]
@@ -332,6 +323,29 @@ class PhysicsWorld(World):
             outcome = self._simulate(action, motion, aimed_at)
             self.q_command = motion.end_q
         outcome.aim_error_mm = aim_error_mm
+        self.outcomes.append(outcome)
+        return outcome
+
+    def execute_motion(self, action: Action, motion: ActionMotion) -> ActionOutcome:
+        """Simulate a motion of `action` planned elsewhere (`tsad verify`: verified on the plan's
+        scene), open loop: it must be verified and start where the arm's command ended (the
+        ready configuration, or the end of the previous motion). `aim_error_mm` is the distance
+        from the centre the motion was planned on to the simulated one."""
+        if self.done:
+            return ActionOutcome(action.object, False, reason="the episode is over")
+        if action.object not in self.sim.models.objects:
+            raise KeyError(f"no true object named {action.object!r}")
+        if not motion.verified:
+            raise ValueError("only a verified motion can be simulated")
+        if not np.allclose(motion.segments[0].q[0], self.q_command, atol=1e-6):
+            raise ValueError("the motion does not start where the arm is")
+        self.num_actions += 1
+        planned = next(o for o in motion.objects_before if o.name == action.object)
+        true = self.poses()[action.object]
+        self.motions.append(motion)
+        outcome = self._simulate(action, motion, "plan")
+        self.q_command = motion.end_q
+        outcome.aim_error_mm = 1000.0 * math.hypot(planned.x - true.x, planned.y - true.y)
         self.outcomes.append(outcome)
         return outcome
 
