@@ -27,6 +27,7 @@ from pydrake.multibody.parsing import LoadModelDirectives
 from tsad_drake.errors import UsageError
 from tsad_drake.motion.export import write_scene_directives
 from tsad_drake.outputs import OutputDir, atomic_write_text
+from tsad_drake.plan_format import plan_json
 from tsad_drake.scenario import OBJECT_NAME_PATTERN, RESERVED_NAMES, save_scenario
 from tsad_drake.scenes import generate_scenario
 
@@ -35,7 +36,7 @@ FAST = settings(max_examples=40, deadline=None, derandomize=True, database=None,
 LONG = settings(FAST, max_examples=400)
 
 COMMANDS = ("scene", "render", "plan", "bench", "report", "dataset", "train", "net-calibrate",
-            "net-eval")
+            "net-eval", "verify")
 
 
 @pytest.fixture(scope="module")
@@ -160,6 +161,18 @@ class StandIns:
         return document
 
     @staticmethod
+    def verify_plan(scenario, actions, world="none", retrieve_target=False, keep_going=False,
+                    **kwargs):
+        from tsad_drake.verification import VerificationReport
+
+        return VerificationReport(scenario.name, world, keep_going, retrieve_target, [], None,
+                                  True, "", 0.0)
+
+    @staticmethod
+    def write_replay_html(scenario, actions, motions, out_path, **kwargs):
+        return atomic_write_text(out_path, "<html></html>")
+
+    @staticmethod
     def generate_dataset(out, scenes, seed_start, observer="raycast", shard_size=20):
         return {"scenes": scenes}
 
@@ -179,11 +192,13 @@ class StandIns:
 @pytest.fixture
 def stand_ins(monkeypatch, scene3):
     import tsad_drake.bench.runner as runner
+    import tsad_drake.motion.replay as replay
     import tsad_drake.pipeline as pipeline
     import tsad_drake.prehensile.dataset as dataset
     import tsad_drake.prehensile.training as training
     import tsad_drake.render_output as render_output
     import tsad_drake.scenes as scenes
+    import tsad_drake.verification as verification
 
     fake = StandIns(scene3)
     monkeypatch.setattr(scenes, "generate_scenario", fake.generate_scenario)
@@ -191,6 +206,8 @@ def stand_ins(monkeypatch, scene3):
     monkeypatch.setattr(render_output, "render_and_write", fake.render_and_write)
     monkeypatch.setattr(runner, "run_bench", fake.run_bench)
     monkeypatch.setattr(dataset, "generate_dataset", fake.generate_dataset)
+    monkeypatch.setattr(verification, "verify_plan", fake.verify_plan)
+    monkeypatch.setattr(replay, "write_replay_html", fake.write_replay_html)
     for name in ("train", "calibrate_thresholds", "evaluate_scenes"):
         monkeypatch.setattr(training, name, getattr(fake, name))
     return fake
@@ -213,9 +230,11 @@ OPTIONS = {
     "--feasibility": ["net", "geometric", "oracle", "magic"],
     "--ablation": ["none", "no-ro", "no-re", "all"], "--observer": ["raycast", "drake", "eyes"],
     "--segmentation": ["label", "cluster", "magic"], "--out": PATHS, "--data": PATHS,
-    "--weights": PATHS,
+    "--weights": PATHS, "--world": ["none", "geometric", "physics", "mars"],
+    "--config": PATHS, "--set": ["motion.lift=0.05", "motion.bogus=1", "nodot", "motion.lift=[",
+                                 "planner.iteration_budget=-3", "world.dt=abc"],
 }
-FLAGS = ["--occluded", "--motion", "--open-loop", "--help"]
+FLAGS = ["--occluded", "--motion", "--open-loop", "--keep-going", "--help"]
 
 
 @st.composite
@@ -229,14 +248,16 @@ def command_lines(draw) -> list[str]:
             args += [option, draw(st.sampled_from(OPTIONS[option]))]
     if args[0] == "report":
         args += draw(st.lists(st.sampled_from(PATHS), max_size=2))
+    if args[0] == "verify":
+        args += draw(st.lists(st.sampled_from(["{tmp}/inputs/plan.json", *PATHS]), max_size=2))
     return args
 
 
 def _allowed_outputs(args: list[str], cwd: Path) -> list[Path]:
     """Where a command may write: each --out (or --weights, updated in place) given, the files a
-    command writes beside a file output, and plan's default folder."""
+    command writes beside a file output, and plan's and verify's default folders."""
     given_paths = [Path(args[i + 1]) for i, a in enumerate(args[:-1]) if a in ("--out", "--weights")]
-    allowed = [cwd / "out" / "plan"]
+    allowed = [cwd / "out" / "plan", cwd / "out" / "verify"]
     for path in given_paths:
         path = path if path.is_absolute() else cwd / path
         allowed += [path, path.with_suffix(".json"), path.with_suffix(".png"),
@@ -252,6 +273,7 @@ def _check_command_line(template: list[str], cli, scenario) -> None:
         (inputs / "garbage.bin").write_bytes(bytes(range(256)))
         (inputs / "bench.json").write_text(json.dumps(bench_document()))
         save_scenario(scenario, inputs / "scene.yaml")
+        (inputs / "plan.json").write_text(json.dumps(plan_json("scene.yaml", [])))
         (root / "out").mkdir()
         (root / "out" / "notes.txt").write_text("unrelated")
         cwd = root / "cwd" / "a" / "b" / "c" / "d"  # relative paths with ../ stay inside root

@@ -242,3 +242,17 @@ def test_physics_world_reports_the_outcomes_of_tsad_plan_world_physics(tmp_path,
     assert report["retrieval"]["world"]["retrieved"] == planned["success"]
     for name in ("replay.html", "planned_replay.html", "scene.dmd.yaml"):
         assert (tmp_path / "out" / name).stat().st_size > 0
+
+
+def test_set_changes_the_motion_settings_verification_runs_with(tmp_path, capsys):
+    """--set reaches the motion planner: a held-object clearance wider than the gap between the
+    shelf's side wall and where `front` is placed refuses the first action; an unknown field is
+    one line, exit 2 and nothing written."""
+    path = _write(tmp_path, plan_json(small_scene(), GOOD[:1]))
+    (code, _, _), report = _verify(tmp_path, capsys, path, "--set", "motion.held_clearance=0.08")
+    assert code == 1 and report["actions"][0]["status"] == "refused"
+    assert report["actions"][0]["cause"]["kind"] == "clearance"
+    code, _, err = invoke(capsys, ["verify", path, "--set", "motion.bogus=1",
+                                   "--out", tmp_path / "bad"])
+    assert_clean((code, "", err), codes=(2,))
+    assert "motion.bogus" in err and not (tmp_path / "bad").exists()

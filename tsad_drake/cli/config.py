@@ -1,4 +1,5 @@
-"""`--config FILE.yaml` and `--set section.field=value`: the flags of plan, bench and config."""
+"""`--config FILE.yaml` and `--set section.field=value`: the flags of plan, bench, config and
+verify."""
 
 from __future__ import annotations
 
@@ -23,12 +24,20 @@ def add_config_args(p: argparse.ArgumentParser) -> None:
 def effective_config(args: argparse.Namespace):
     """The run's config: the defaults of --planner, --ablation, --variant and --sensor, then
     --config, then each --set (UsageError for anything unknown or ill-typed)."""
-    from tsad_drake.run_config import apply_sets, default_run_config, merge_file
+    from tsad_drake.run_config import default_run_config
 
     try:
         config = default_run_config(args.planner, args.ablation, args.variant, args.sensor)
     except ValueError as err:
         raise UsageError(str(err)) from None
+    return apply_config_args(config, args)
+
+
+def apply_config_args(config, args: argparse.Namespace):
+    """`config` with --config merged and each --set applied (UsageError for anything unknown or
+    ill-typed)."""
+    from tsad_drake.run_config import apply_sets, merge_file
+
     if args.config is not None:
         config = merge_file(config, args.config)
     return apply_sets(config, args.set)

@@ -7,6 +7,7 @@ import json
 import statistics
 
 from tsad_drake.cli.common import add_threads_arg
+from tsad_drake.cli.config import add_config_args, apply_config_args
 from tsad_drake.outputs import prepare_out_dir
 from tsad_drake.runtime import detail
 
@@ -36,6 +37,7 @@ def add_verify_parser(sub) -> None:
                    help="after a refused action, skip it and check the later actions on the "
                         "scene without it (default: stop at the first refused action)")
     p.add_argument("--out", default="out/verify", help="output directory (default out/verify)")
+    add_config_args(p)
     add_threads_arg(p)
 
 
@@ -68,16 +70,17 @@ def _action_line(verdict: dict) -> str:
 
 def cmd_verify(args: argparse.Namespace) -> int:
     from tsad_drake.plan_format import load_plan
+    from tsad_drake.run_config import default_run_config
 
     plan = load_plan(args.plan)  # a malformed plan: one line, exit 2, nothing written
+    # the station, motion and world sections are what verification uses (the planner's unused)
+    config = apply_config_args(default_run_config(), args)
     out = prepare_out_dir(args.out)
     from tsad_drake.motion.export import write_scene_directives
     from tsad_drake.motion.replay import write_replay_html
-    from tsad_drake.run_config import default_run_config
     from tsad_drake.verification import verify_plan
 
     scenario = plan.scenario
-    config = default_run_config()
     count = len(plan.actions)
 
     def progress(i: int, motion) -> None:
