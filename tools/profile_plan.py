@@ -66,6 +66,8 @@ def main() -> None:
         t_plan = time.perf_counter() - t0
         print(f"s{args.scenario} seed {seed}: observe {t_obs:.2f} s  plan {t_plan:.2f} s  "
               f"iterations {plan.stats.get('iterations_total')}  queries {model.evaluations}  "
+              f"reused {getattr(model, 'reused_inputs', 0)}  "
+              f"net {getattr(model, 'network_seconds', 0):.2f} s  "
               f"actions {len(plan.actions)}  success {plan.success}  {plan.failure_reason}",
               flush=True)
     if profiler:

@@ -9,6 +9,8 @@ from tsad_drake.prehensile.network import (
     PrehensileNet,
     ball_query,
     farthest_point_sampling,
+    gather,
+    nearest3,
     segment_max,
     squared_distances,
 )
@@ -127,3 +129,20 @@ def test_segment_max_pools_per_object_and_ignores_negative_ids():
     ids = torch.tensor([[0, 0, 1, -2, 2]])
     out = segment_max(values, ids, 4)
     np.testing.assert_allclose(out.numpy()[0, :, 0], [5.0, 2.0, -3.0, 0.0])
+
+
+def test_gather_and_nearest3_match_torch_gather_and_topk():
+    """The fast forms give torch.gather's values and topk(3, largest=False)'s values and indices
+    (ascending; random distances have no ties) on batched inputs, so the trained network's
+    answers did not change with them."""
+    gen = torch.Generator().manual_seed(3)
+    values = torch.randn(4, 50, 7, generator=gen)
+    idx = torch.randint(0, 50, (4, 9, 5), generator=gen)
+    flat = idx.reshape(4, -1)
+    expected = torch.gather(values, 1, flat.unsqueeze(-1).expand(-1, -1, 7)).reshape(4, 9, 5, 7)
+    assert torch.equal(gather(values, idx), expected)
+    d2 = torch.rand(4, 30, 12, generator=gen)
+    got_values, got_indices = nearest3(d2)
+    ref_values, ref_indices = d2.topk(3, dim=-1, largest=False)
+    assert torch.equal(got_values, ref_values) and torch.equal(got_indices, ref_indices)
+    assert nearest3(d2[..., :2])[1].shape == (4, 30, 2)  # fewer than three centres
