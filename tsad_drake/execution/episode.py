@@ -165,6 +165,10 @@ class EpisodeLimits:
     #: stats say `unsolvable`: `planning.solvability`), before `look_again`
     #: (`TSADConfig.reobserve_unsolvable`)
     reobserve_unsolvable: int = 0
+    #: before asking a planner that does not check itself (`PlannerSpec.checks_solvability`),
+    #: test whether any sequence can free the target (`planning.solvability`); when none can,
+    #: the round fails at once with the reason (stats `unsolvable`)
+    fail_fast: bool = True
 
 
 def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config: Any, seed: int,
@@ -193,7 +197,8 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
     rng = np.random.default_rng(seed)
     start = world.scenario()
     workspace = make_workspace(start)
-    policy = ReplanningPolicy(planner, config, closed_loop, start, limits.max_rejections)
+    policy = ReplanningPolicy(planner, config, closed_loop, start, limits.max_rejections,
+                              limits.fail_fast)
     result = EpisodeResult(start.name, seed, planner.name, feasibility_name,
                            closed_loop=closed_loop)
     models: list[FeasibilityModel] = []  #: every round's model (one per observation)

@@ -293,6 +293,22 @@ class FootprintFeasibility(FeasibilityModel):
         return geom.wall_clear & (geom.widths <= ws.stroke - ws.grasp_margin - self.fit_margin
                                   + 1e-9)
 
+    def unreachable_detail(self, state: PlanningState, index: int) -> str:
+        """The footprint's narrowest width across the approach against the stroke's limit, or the
+        side walls when it fits at some angle but every such corridor meets a wall."""
+        geom = self._object_entry(state.objects[index])
+        ws = self.workspace
+        limit = ws.stroke - ws.grasp_margin - self.fit_margin
+        fits = geom.widths <= limit + 1e-9
+        if not fits.any():
+            k = int(np.argmin(geom.widths))
+            return (f"narrowest across the gripper {geom.widths[k] * 1000:.0f} mm, at "
+                    f"{np.degrees(ws.approach_angles[k]):+.0f} deg; the stroke takes "
+                    f"{limit * 1000:.0f} mm")
+        if not (fits & geom.wall_clear).any():
+            return "every approach it fits the gripper at meets a shelf side wall"
+        return ""
+
     def pickable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) object `index` can be picked at each angle: reachable with a clear corridor."""
         g = self.geometry(state)

@@ -63,6 +63,11 @@ class FeasibilityModel(ABC):
         Default: every angle (a model that does not know says nothing is ruled out)."""
         return np.ones(len(self.workspace.approach_angles), dtype=bool)
 
+    def unreachable_detail(self, state: PlanningState, index: int) -> str:
+        """Why object `index` is `reachable` at no angle, in words (e.g. its width against the
+        stroke), for the reason an unsolvable problem reports; "" when the model cannot say."""
+        return ""
+
     def place_options(self, state: PlanningState, index: int, theta_pick: float) -> np.ndarray:
         """(C,) theta_place per grid cell for object `index` picked at theta_pick (nan: the cell
         admits no placement). Default: per cell, the least rotation whose placement is valid in

@@ -44,6 +44,9 @@ class PickVeto(FeasibilityModel):
     def reachable(self, state: PlanningState, index: int) -> np.ndarray:
         return self.base.reachable(state, index)
 
+    def unreachable_detail(self, state: PlanningState, index: int) -> str:
+        return self.base.unreachable_detail(state, index)
+
     def place_options(self, state: PlanningState, index: int, theta_pick: float) -> np.ndarray:
         return self.base.place_options(state, index, theta_pick)
 

@@ -38,6 +38,9 @@ class PlannerSpec:
     #: the closed loop may keep the rest of its last plan while a new observation still admits
     #: it (`config.reuse_plans`)
     reuse: bool = False
+    #: decides itself whether a problem can be solved (TSAD's `fail_fast`, off in its paper
+    #: variant); for the others the closed loop checks before asking (`EpisodeLimits.fail_fast`)
+    checks_solvability: bool = False
     #: takes the paper's reward ablations (`ABLATIONS`)
     ablations: bool = False
     #: named variants: name -> config overrides ("full" is the default config)
@@ -57,7 +60,7 @@ def register(spec: PlannerSpec) -> None:
 
 
 register(PlannerSpec("tsad", plan_tsad, TSADConfig, sub_searches=True, exclusions=True,
-                     reuse=True, ablations=True, variants=VARIANTS))
+                     reuse=True, ablations=True, checks_solvability=True, variants=VARIANTS))
 register(PlannerSpec("gp3", plan_gp3, GP3Config))
 register(PlannerSpec("rots", plan_rots, ROTSConfig))
 register(PlannerSpec("rots-star", plan_rots_star, lambda: ROTSConfig(check_feasibility=True)))

@@ -20,6 +20,7 @@ from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.pick_veto import PickVeto
 from tsad_drake.planning.plan_check import action_key, replay_plan
 from tsad_drake.planning.registry import PlannerSpec
+from tsad_drake.planning.solvability import unsolvable_reason
 from tsad_drake.planning.types import Action, Plan, PlanningState, Workspace
 from tsad_drake.scenario import Scenario
 
@@ -52,7 +53,7 @@ class ReplanningPolicy:
     """One episode's re-planning memory for planner `spec` (see the module docstring)."""
 
     def __init__(self, spec: PlannerSpec, config: Any, closed_loop: bool, start: Scenario,
-                 max_rejections: int = 8) -> None:
+                 max_rejections: int = 8, fail_fast: bool = False) -> None:
         if closed_loop and spec.sub_searches and not config.lookahead:
             config = dc.replace(config, max_sub_searches=1)  # the paper: one sub-search per look
         self.spec, self.config, self.closed_loop = spec, config, closed_loop
@@ -67,6 +68,8 @@ class ReplanningPolicy:
         self.done: list[Action] = []
         self.reuse = closed_loop and spec.reuse and config.reuse_plans
         self.pending: Plan | None = None  #: the unexecuted sub-searches of the last plan
+        #: test solvability before asking a planner that does not itself (`solvability`)
+        self.fail_fast = fail_fast and not spec.checks_solvability
 
     @property
     def withholds_rejected(self) -> bool:
@@ -87,9 +90,22 @@ class ReplanningPolicy:
         if plan is not None:
             plan.stats = {**plan.stats, "extras_used": {"reuse_plans": 1}}
         else:
-            plan = self.spec.plan(state, feasibility, workspace, self.config, rng)
+            plan = self._unsolvable(state, feasibility) or self.spec.plan(
+                state, feasibility, workspace, self.config, rng)
         self.pending = None
         return plan
+
+    def _unsolvable(self, state: PlanningState, feasibility: FeasibilityModel) -> Plan | None:
+        """A failed plan naming why no sequence can free the target, when `fail_fast` finds
+        none can (the planner is not asked); else None."""
+        if not self.fail_fast or not state.target:
+            return None
+        start = time.perf_counter()
+        why = unsolvable_reason(state, feasibility)
+        if not why:
+            return None
+        return Plan(self.spec.name, None, [], False, why, time.perf_counter() - start,
+                    {"unsolvable": True, "checked_by": "closed loop"})
 
     def this_round(self, plan: Plan) -> list[Action]:
         """The actions to execute before observing again (closed loop: the first sub-search's)."""

@@ -57,14 +57,25 @@ def mutually_blocking(state: PlanningState, feasibility: FeasibilityModel,
             if always(i, j) and always(j, i)]
 
 
+def _ungraspable(state: PlanningState, feasibility: FeasibilityModel, index: int) -> str:
+    """"NAME cannot be grasped at any approach angle (why)" for an object reachable nowhere."""
+    detail = feasibility.unreachable_detail(state, index)
+    return (f"{state.objects[index].name} cannot be grasped at any approach angle"
+            + (f" ({detail})" if detail else ""))
+
+
 def unsolvable_reason(state: PlanningState, feasibility: FeasibilityModel) -> str:
     """"" when some remove-only sequence frees the target, else why none can (one line naming
-    the objects): the target reachable at no angle, or its blockers never pickable."""
+    the objects): the target reachable at no angle (with the model's reason, e.g. its width
+    against the stroke), or its blockers never pickable (those reachable at no angle named with
+    their reason, and the mutually blocking pairs)."""
     t = state.target_index
+    if np.asarray(feasibility.pickable(state, t), dtype=bool).any():
+        return ""  # the cheap case first: nothing to free
     names = [o.name for o in state.objects]
     reach = np.asarray(feasibility.reachable(state, t), dtype=bool)
     if not reach.any():
-        return f"unsolvable: the target {state.target} cannot be grasped at any approach angle"
+        return "unsolvable: the target " + _ungraspable(state, feasibility, t)
     free = freeable(state, feasibility)
     if t in free:
         return ""
@@ -72,6 +83,10 @@ def unsolvable_reason(state: PlanningState, feasibility: FeasibilityModel) -> st
     sets = feasibility.blockers(state, t)
     fewest = min((sets[k] & stuck for k in np.nonzero(reach)[0]), key=len)
     why = f"unsolvable: no sequence can make {', '.join(names[i] for i in sorted(fewest))} pickable"
+    never = [i for i in sorted(fewest)
+             if not np.asarray(feasibility.reachable(state, i), dtype=bool).any()]
+    if never:
+        why += ": " + "; ".join(_ungraspable(state, feasibility, i) for i in never)
     pairs = mutually_blocking(state, feasibility, stuck)
     if pairs:
         why += " (mutually blocking: " + ", ".join(f"{names[i]} and {names[j]}"

@@ -172,6 +172,12 @@ class NetFeasibility(FeasibilityModel):
         """(A,) the network says object `index` fits the stroke and its corridor misses the walls."""
         return np.array([r for r, _ in self._object_answers(state, index)], dtype=bool)
 
+    def unreachable_detail(self, state: PlanningState, index: int) -> str:
+        """The perceived footprint's reading (the placement model's), when it agrees."""
+        if self.placement_model.reachable(state, index).any():
+            return ""
+        return "perceived footprint: " + self.placement_model.unreachable_detail(state, index)
+
     def pickable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) reachable and no blocker, per approach angle."""
         return np.array([r and not b for r, b in self._object_answers(state, index)], dtype=bool)
