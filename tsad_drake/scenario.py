@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from tsad_drake.errors import ScenarioError
-from tsad_drake.geometry2d import convex_polygon_distance, footprint_polygon
+from tsad_drake.geometry2d import footprint_penetration, footprint_polygon
 from tsad_drake.outputs import atomic_write_text
 
 SHAPES = ("cylinder", "box")
@@ -145,6 +145,10 @@ MAX_APPROACH_ANGLES = 36
 MAX_SHELF_SIZE = 2.0  #: m, inner depth, width and height
 MIN_OBJECT_SIZE = 0.005  #: m, smallest radius, side or height (smaller is not seen at 128x128)
 MAX_MASS = 50.0  #: kg
+#: m, deepest interpenetration of two footprints that still counts as contact: objects that touch
+#: (on a real shelf, in a settled simulation, where point contact leaves them a fraction of a
+#: millimetre inside each other) load; deeper ones are refused (`tsad scene --settle` fixes them)
+CONTACT_TOLERANCE = 0.001
 
 
 def _fail(path: str, message: str) -> None:
@@ -236,11 +240,12 @@ def _validate_object(k: int, obj: ObjectConfig, shelf: ShelfConfig) -> None:
         _fail(where, f"object {obj.name} lies outside the shelf workspace")
 
 
-def validate(scenario: Scenario) -> None:
+def validate(scenario: Scenario, overlaps: bool = True) -> None:
     """Raise ScenarioError naming the field (`objects[3].size[0]: ...`) when the scenario is
     malformed, out of range or physically impossible: every number finite and in range, names
-    safe and not reserved, sizes bounded, objects inside the shelf and apart, the target one of
-    them."""
+    safe and not reserved, sizes bounded, objects inside the shelf and apart or touching (no
+    deeper than CONTACT_TOLERANCE inside each other, unless `overlaps` is False: a scene to
+    settle), the target one of them."""
     _validate_frame(scenario)
     objects = scenario.objects
     if not isinstance(objects, list) or not 1 <= len(objects) <= MAX_OBJECTS:
@@ -255,12 +260,30 @@ def validate(scenario: Scenario) -> None:
     names = [o.name for o in objects]
     if scenario.target not in names:
         _fail("target", f"{scenario.target!r} is not the name of one of the objects")
-    polys = [o.footprint() for o in objects]
-    for i in range(len(polys)):
-        for j in range(i + 1, len(polys)):
-            if convex_polygon_distance(polys[i], polys[j]) < 1e-4:
-                _fail("objects", f"objects[{i}] ({names[i]}) and objects[{j}] ({names[j]}) "
-                                 "overlap")
+    for i, j, depth in interpenetrations(scenario) if overlaps else []:
+        _fail("objects", f"objects[{i}] ({names[i]}) and objects[{j}] ({names[j]}) "
+                         f"overlap: they interpenetrate by {depth * 1000:.1f} mm (touching is "
+                         f"allowed, up to {CONTACT_TOLERANCE * 1000:g} mm; `tsad scene --settle` "
+                         "separates them)")
+
+
+def footprint_pose(obj: ObjectConfig) -> tuple:
+    """(shape, size, x, y, yaw): the footprint as `geometry2d.footprint_penetration` takes it."""
+    return obj.shape, obj.size, obj.x, obj.y, obj.yaw
+
+
+def interpenetrations(scenario: Scenario, tolerance: float = CONTACT_TOLERANCE
+                      ) -> list[tuple[int, int, float]]:
+    """(i, j, depth in m) of every pair of objects whose footprints interpenetrate deeper than
+    `tolerance` (contact, within it, is not overlap)."""
+    poses = [footprint_pose(o) for o in scenario.objects]
+    found = []
+    for i in range(len(poses)):
+        for j in range(i + 1, len(poses)):
+            depth = footprint_penetration(poses[i], poses[j])
+            if depth > tolerance:
+                found.append((i, j, depth))
+    return found
 
 
 def scene_digest(scenario: Scenario) -> str:
@@ -280,8 +303,9 @@ def save_scenario(scenario: Scenario, path: str | Path) -> None:
     atomic_write_text(path, yaml_dump_typed(scenario))
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Load and validate a scenario YAML file; raise ScenarioError on any problem."""
+def load_scenario(path: str | Path, overlaps: bool = True) -> Scenario:
+    """Load and validate a scenario YAML file (`validate`, with `overlaps`); raise ScenarioError
+    on any problem."""
     from pydrake.common.yaml import yaml_load_typed
 
     path = Path(path)
@@ -293,7 +317,7 @@ def load_scenario(path: str | Path) -> Scenario:
         first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         raise ScenarioError(f"malformed scenario YAML {path}: {first}") from None
     try:
-        validate(scenario)
+        validate(scenario, overlaps)
     except ScenarioError as err:
         raise ScenarioError(f"scenario {path}: {err}") from None
     return scenario

@@ -82,8 +82,8 @@ def resolve_scenario(spec: str, seed: int, occluded: bool = False):
                      "or the path of a scenario YAML file")
 
 
-def add_scenario_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenario", required=True,
+def add_scenario_args(p: argparse.ArgumentParser, required: bool = True) -> None:
+    p.add_argument("--scenario", required=required,
                    help="built-in scenario 1, 2, 3 or real, or the path of a scenario YAML file "
                         "(as written by `tsad scene`)")
     p.add_argument("--seed", type=int, default=0,

@@ -19,7 +19,7 @@ from tsad_drake.cli.common import (
     resolve_scenario,
 )
 from tsad_drake.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, RunFailure, UsageError
-from tsad_drake.outputs import prepare_out_dir, prepare_out_file
+from tsad_drake.outputs import prepare_out_dir
 from tsad_drake.runtime import NORMAL, QUIET, VERBOSE, pin_threads, set_verbosity
 
 
@@ -64,11 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="also print a line per finished bench episode and Drake's INFO log "
                            "(on stderr)")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    from tsad_drake.cli.scene import add_scene_parser
 
-    p = sub.add_parser("scene", help="generate a scenario and write it as YAML",
-                       description="Generate a scene of a built-in scenario and save it as YAML.")
-    add_scenario_args(p)
-    p.add_argument("--out", required=True, help="scenario YAML file to write")
+    add_scene_parser(sub)
 
     p = sub.add_parser("render", help="render depth from every approach angle and segment it",
                        description=(
@@ -94,18 +92,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def cmd_scene(args: argparse.Namespace) -> int:
-    from tsad_drake.scenario import save_scenario
-
-    check_scenario_args(args)
-    out = prepare_out_file(args.out)
-    scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
-    save_scenario(scenario, out)
-    print(f"wrote {out}: scenario {scenario.name} seed {scenario.seed}, "
-          f"{len(scenario.objects)} objects, target {scenario.target}")
-    return 0
-
-
 def cmd_render(args: argparse.Namespace) -> int:
     from tsad_drake.render_output import render_and_write
 
@@ -129,6 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     set_verbosity(QUIET if args.quiet else VERBOSE if args.verbose else NORMAL)
     from tsad_drake.cli.net import NET_COMMANDS
     from tsad_drake.cli.plan import PLAN_COMMANDS
+    from tsad_drake.cli.scene import cmd_scene
     from tsad_drake.cli.sweep import SWEEP_COMMANDS
     from tsad_drake.cli.verify import VERIFY_COMMANDS
 

@@ -10,6 +10,7 @@ what the verifier checked. `validate_motion_section` is the schema, as a functio
 
 from __future__ import annotations
 
+import dataclasses as dc
 import math
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
@@ -19,7 +20,7 @@ from pydrake.common.schema import Rotation, Transform
 from pydrake.common.yaml import yaml_dump_typed
 from pydrake.geometry import Meshcat, MeshcatVisualizer
 from pydrake.math import RigidTransform
-from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective, ModelDirectives
+from pydrake.multibody.parsing import AddFrame, AddModel, AddWeld, ModelDirective, ModelDirectives
 from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
 from pydrake.systems.framework import DiagramBuilder
 
@@ -47,6 +48,11 @@ MOTION_ACTION_KEYS = {"object": str, "theta_pick_deg": float, "place_xy": list,
 SEGMENT_KEYS = {"name": str, "held": (str, type(None)), "t": list, "q": list}
 #: package of the generated scene files (package.xml beside scene.dmd.yaml)
 SCENE_PACKAGE = "tsad_drake_scene"
+#: frame added on the target's body: how the directives record which object is the target
+TARGET_FRAME = "tsad_target"
+#: file beside scene.dmd.yaml with what Drake models cannot hold: the scenario's planning settings
+#: (name, seed, grid, gripper, approach angles, min_gap, occluded) and each object's kind
+SETTINGS_FILE = "tsad_scene.yaml"
 
 
 class SceneLayout:
@@ -200,7 +206,8 @@ def _link_sdf(name: str, mass: float, parts: list[tuple[str, tuple, tuple, str]]
 
 def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
                            X_WS: RigidTransform | None = None) -> Path:
-    """Write `scene.dmd.yaml` (+ package.xml, shelf/ground/object SDFormat files) into out_dir.
+    """Write `scene.dmd.yaml` (+ package.xml, shelf/ground/object SDFormat files and the
+    settings Drake cannot hold, SETTINGS_FILE) into out_dir (`import_dmd` reads it back).
 
     Load it with stock pydrake: a PackageMap holding the project's models/package.xml and
     out_dir/package.xml (package `tsad_drake_scene`), then ProcessModelDirectives(
@@ -228,6 +235,9 @@ def write_scene_directives(scenario: Scenario, out_dir: str | Path | OutputDir,
     out.write_text("shelf.sdf", _link_sdf("shelf", 10.0, panels))
     out.write_text("ground.sdf", _link_sdf("ground", 1.0, [
         ("ground", (0.0, 0.0, -0.01), (4.0, 4.0, 0.02), "box")]))
+    out.write_text(SETTINGS_FILE, yaml_dump_typed(dc.replace(scenario, objects=[
+        ObjectConfig(name=o.name, kind=o.kind, shape=o.shape, mass=o.mass)
+        for o in scenario.objects])))
     out.write_text("scene.dmd.yaml", yaml_dump_typed(scene_directives(scenario, X_WS, {
         obj.name: out.write_text(f"{obj.name}.sdf", _link_sdf(obj.name, obj.mass, [
             (obj.name, (0.0, 0.0, 0.0), tuple(obj.size), obj.shape)])).name
@@ -239,7 +249,7 @@ def scene_directives(scenario: Scenario, X_WS: RigidTransform,
                      object_files: dict[str, str]) -> ModelDirectives:
     """Drake's ModelDirectives of the scene: the arm at HOME_Q with the fingers open, welded
     ground and shelf, each object a free body at its scenario pose (`object_files`: object name
-    -> SDFormat file name in the scene package)."""
+    -> SDFormat file name in the scene package), and the frame TARGET_FRAME on the target."""
     def model(name: str, file: str, **kwargs) -> ModelDirective:
         return ModelDirective(add_model=AddModel(name=name, file=file, **kwargs))
 
@@ -264,6 +274,9 @@ def scene_directives(scenario: Scenario, X_WS: RigidTransform,
                          rotation=Rotation(value=Rotation.Rpy(deg=[0.0, 0.0, math.degrees(obj.yaw)])))
         directives.append(model(obj.name, f"{scene}/{object_files[obj.name]}",
                                 default_free_body_pose={obj.name: pose}))
+    directives.append(ModelDirective(add_frame=AddFrame(
+        name=f"{scenario.target}::{TARGET_FRAME}",
+        X_PF=Transform(base_frame=f"{scenario.target}::{scenario.target}"))))
     return ModelDirectives(directives=directives)
 
 

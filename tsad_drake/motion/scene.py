@@ -130,6 +130,8 @@ class MotionModel:
         self.diagram = builder.Build()
         self.plant = plant
         self.held = held
+        self.held_body = held_body
+        self.object_bodies = bodies
         self.config = config
         self.checker = SceneGraphCollisionChecker(
             model=self.diagram, robot_model_instances=robot_instances,
@@ -149,6 +151,14 @@ class MotionModel:
         self.finger_indices = [plant.GetJointByName(n, self.gripper).position_start()
                                for n in FINGER_JOINTS]
         self.context = plant.CreateDefaultContext()
+
+    def set_held_padding(self, names: list[str], padding: float) -> None:
+        """Padding (m; negative lets them interpenetrate that much) between the held object and
+        the named objects: the neighbours a picked object touches where it stood slide past it
+        while it is lifted and carried out (`verify` relaxes theirs, then restores it)."""
+        for name in names:
+            self.checker.SetPaddingBetween(self.held_body.index(),
+                                           self.object_bodies[name].index(), padding)
 
     @property
     def num_positions(self) -> int:

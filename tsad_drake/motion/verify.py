@@ -21,6 +21,7 @@ import time
 import numpy as np
 from pydrake.math import RigidTransform
 
+from tsad_drake.geometry2d import convex_polygon_distance
 from tsad_drake.motion.cartesian import LineError, line_path, time_path
 from tsad_drake.motion.keyframes import (
     R_SG,
@@ -38,7 +39,7 @@ from tsad_drake.motion.trajectory import (
     sample_trajectory,
 )
 from tsad_drake.planning.types import Action
-from tsad_drake.scenario import ObjectConfig, Scenario
+from tsad_drake.scenario import CONTACT_TOLERANCE, ObjectConfig, Scenario
 from tsad_drake.station import StationConfig
 from tsad_drake.station_models import FINGER_OPEN, X_SO
 
@@ -270,6 +271,9 @@ class _ActionPlanner:
         X_WO = self.X_WS @ X_SO(obj) @ RigidTransform([0.0, 0.0, config.lift_gap])
         self.X_TO = pick.X_WT(q_grasp).inverse() @ X_WO
         carry = MotionModel(self.shelf, self.X_WS, self.objects, config, Held(obj, self.X_TO))
+        # objects touching the picked one may stay in contact while it rises and leaves
+        touching = touching_neighbours(obj, self.objects, config.held_clearance)
+        carry.set_held_padding(touching, -CONTACT_TOLERANCE)
         closed_q = q_grasp.copy()
         closed_q[carry.finger_indices] = closed
         self.segments.append(_gripper_segment(carry, "close", q_grasp, closed_q, t0=self.end,
@@ -279,6 +283,8 @@ class _ActionPlanner:
         for a, b in zip(names[:-1], names[1:], strict=True):
             current = self.move(carry, a, b, current, targets[b], closed,
                                 line=(a, b) != ("retreat", "pre_place"))
+            if b == "retreat":  # out of the shelf: the held object keeps its clearance again
+                carry.set_held_padding(touching, config.held_clearance)
         place = MotionModel(self.shelf, self.X_WS, self.after, config, near=obj.name)
         q_released = current.copy()
         q_released[place.finger_indices] = opening
@@ -290,6 +296,15 @@ class _ActionPlanner:
     def end(self) -> float:
         """s, where the time line of the segments so far ends."""
         return self.segments[-1].times[-1] if self.segments else 0.0
+
+
+def touching_neighbours(obj: ObjectConfig, objects: list[ObjectConfig], within: float
+                        ) -> list[str]:
+    """Names of the objects whose footprints come within `within` (m) of `obj`'s: those it is
+    lifted and carried out along (a scenario lets objects touch, `CONTACT_TOLERANCE`)."""
+    poly = obj.footprint()
+    return [o.name for o in objects
+            if o.name != obj.name and convex_polygon_distance(poly, o.footprint()) < within]
 
 
 def _line_segment(model: MotionModel, name: str, q0: np.ndarray, X_W1: RigidTransform,

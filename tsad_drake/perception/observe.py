@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from tsad_drake.geometry2d import edge_normals
+from tsad_drake.geometry2d import convex_polygon_penetration
 from tsad_drake.perception.footprint import FootprintConfig, fit_footprint
 from tsad_drake.perception.free_space import FreeSpace
 from tsad_drake.perception.pointcloud import CloudConfig, LabelledCloud, views_to_cloud
@@ -125,12 +125,7 @@ def perceived_object(name: str, points: np.ndarray, is_target: bool, config: Per
 def interpenetration(a: np.ndarray, b: np.ndarray) -> float:
     """m, how deep convex polygons `a` and `b` (counter-clockwise) interpenetrate: the least
     overlap of their projections over every edge normal (<= 0: apart)."""
-    depth = np.inf
-    for normal in np.concatenate([edge_normals(a), edge_normals(b)]):
-        if normal.any():
-            pa, pb = a @ normal, b @ normal
-            depth = min(depth, float(min(pa.max() - pb.min(), pb.max() - pa.min())))
-    return depth
+    return convex_polygon_penetration(a, b, signed=True)
 
 
 def join_interpenetrating(objects: list[PerceivedObject], config: PerceptionConfig,
