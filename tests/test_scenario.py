@@ -133,7 +133,7 @@ def test_same_seed_same_scene_and_different_seeds_differ():
     assert a != c
 
 
-@pytest.mark.parametrize("name", ["1", "2"])
+@pytest.mark.parametrize("name", ["1", pytest.param("2", marks=pytest.mark.slow)])
 def test_occluded_target_is_hidden_in_every_view_and_still_solvable(name):
     scenario = generate_scenario(name, 0, occluded=True)
     assert scenario.occluded

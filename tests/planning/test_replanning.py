@@ -4,6 +4,7 @@ import dataclasses as dc
 import math
 
 import numpy as np
+import pytest
 
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
@@ -83,6 +84,7 @@ def test_the_rest_of_a_plan_is_kept_for_the_next_round_and_dropped_when_cut_shor
     assert policy.pending is None
 
 
+@pytest.mark.slow  # 60 s; reuse and its dropping stay covered by the test above
 def test_the_rest_of_a_plan_is_not_reused_once_one_of_its_relocations_is_excluded():
     """The closed loop keeps the rest of the last plan while it is still feasible, but never one
     that holds a relocation excluded since (a motion refusal or the cycle guard): that would
