@@ -8,6 +8,13 @@ EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
 
+def first_line(err: Exception) -> str:
+    """The first line of an exception's message (Drake's parse errors run to many lines), or
+    its type's name when the message is empty: what a one-line refusal quotes."""
+    text = str(err).strip()
+    return text.splitlines()[0] if text else type(err).__name__
+
+
 class UsageError(ValueError):
     """Bad command-line input or a bad file given on it (exit status 2)."""
 

@@ -17,7 +17,7 @@ import json
 import math
 from pathlib import Path
 
-from tsad_drake.errors import ScenarioError, UsageError
+from tsad_drake.errors import ScenarioError, UsageError, first_line
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import Scenario, validate
 
@@ -111,8 +111,7 @@ def scenario_from_dict(data: dict) -> Scenario:
     try:
         scenario = yaml_load_typed(schema=Scenario, data=json.dumps(data))
     except Exception as err:  # Drake raises RuntimeError with a multi-line message
-        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        raise PlanFormatError(f"scenario: {first}") from None
+        raise PlanFormatError(f"scenario: {first_line(err)}") from None
     try:
         validate(scenario)
     except ScenarioError as err:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tsad_drake.errors import ScenarioError
+from tsad_drake.errors import ScenarioError, first_line
 from tsad_drake.geometry2d import footprint_penetration, footprint_polygon
 from tsad_drake.outputs import atomic_write_text
 
@@ -314,8 +314,7 @@ def load_scenario(path: str | Path, overlaps: bool = True) -> Scenario:
     try:
         scenario = yaml_load_typed(schema=Scenario, filename=str(path))
     except Exception as err:  # Drake raises RuntimeError with a multi-line message
-        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        raise ScenarioError(f"malformed scenario YAML {path}: {first}") from None
+        raise ScenarioError(f"malformed scenario YAML {path}: {first_line(err)}") from None
     try:
         validate(scenario, overlaps)
     except ScenarioError as err:

@@ -24,7 +24,7 @@ from pydrake.multibody.parsing import LoadModelDirectives, ProcessModelDirective
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import ModelInstanceIndex
 
-from tsad_drake.errors import ScenarioError, UsageError
+from tsad_drake.errors import ScenarioError, UsageError, first_line
 from tsad_drake.motion.export import SCENE_PACKAGE, SETTINGS_FILE, TARGET_FRAME
 from tsad_drake.scenario import ObjectConfig, Scenario, ShelfConfig, validate
 from tsad_drake.station import StationConfig
@@ -36,11 +36,6 @@ STATION_MODELS = ("WorldModelInstance", "DefaultModelInstance", "ur5e", "gripper
 SHELF_PANELS = ("floor", "back", "left", "right", "top")
 #: m, how far the shelf's weld may lie from where the station puts a shelf
 PLACEMENT_TOLERANCE = 1e-6
-
-
-def _first_line(err: Exception) -> str:
-    text = str(err).strip()
-    return text.splitlines()[0] if text else type(err).__name__
 
 
 class _Scene:
@@ -59,7 +54,7 @@ class _Scene:
             ProcessModelDirectives(LoadModelDirectives(str(path)), self.plant, parser)
             self.plant.Finalize()
         except Exception as err:  # Drake's parse errors: RuntimeErrors with long messages
-            raise UsageError(f"cannot load the model directives {path}: {_first_line(err)}"
+            raise UsageError(f"cannot load the model directives {path}: {first_line(err)}"
                              ) from None
         self.context = self.plant.CreateDefaultContext()
 
@@ -116,7 +111,7 @@ def _settings(path: Path) -> Scenario:
     try:
         return yaml_load_typed(schema=Scenario, filename=str(path))
     except Exception as err:
-        raise UsageError(f"malformed scene settings {path}: {_first_line(err)}") from None
+        raise UsageError(f"malformed scene settings {path}: {first_line(err)}") from None
 
 
 def _shelf(scene: _Scene) -> tuple[RigidTransform, ShelfConfig]:
