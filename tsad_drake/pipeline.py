@@ -187,12 +187,25 @@ def initial_rearrangement_set_size(scenario: Scenario) -> int:
     return min(len(target_blockers(scenario, th)) for th in scenario.approach_angles)
 
 
+def episode_settings(scenario: Scenario, settings: EpisodeSettings) -> EpisodeSettings:
+    """The settings an episode on `scenario` runs with: `physics_settings`, and where the arm is
+    in play (motion level, Drake observer), the config's station placed for the shelf
+    (`placement.placed_config`; raises PlacementError when no base pose reaches it all)."""
+    settings = physics_settings(settings)
+    if not (settings.motion or settings.observer == "drake"):
+        return settings
+    from tsad_drake.placement import placed_config
+
+    return dc.replace(settings, config=placed_config(scenario, settings.run_config()),
+                      planner_overrides=(), sensor_overrides=())
+
+
 def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
                  physics_replay=None) -> dict:
     """Run one episode and return its JSON row (plan.json fields plus difficulty figures); on
     the physics world, `physics_replay` (a path) gets a Meshcat recording of the simulation."""
+    settings = episode_settings(scenario, settings)
     config = settings.run_config()
-    settings = physics_settings(settings)
     world = make_world(settings, scenario, seed)
     action_check = None
     if settings.motion:
@@ -259,8 +272,8 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
     physics = out_dir is not None and settings.world == "physics"
     row = run_settings(scenario, seed, settings,
                        physics_replay=out_dir / "replay.html" if physics else None)
+    settings = episode_settings(scenario, settings)
     config = settings.run_config()
-    settings = physics_settings(settings)
     if settings.motion:
         from tsad_drake.motion.export import (
             SceneLayout,

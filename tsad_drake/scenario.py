@@ -41,11 +41,29 @@ class ShelfConfig:
 
 @dc.dataclass
 class GridConfig:
-    """Placement grid: cell centres of Gx x Gy cells over the workspace are placement candidates."""
+    """Placement grid: cell centres of Gx x Gy cells over the workspace are placement candidates.
+
+    The defaults are the paper's 4 x 6 grid on the default 0.32 x 0.50 m shelf; a scenario file
+    that sets no cell counts gets `for_shelf` (cells of about the same size on its shelf)."""
 
     cells_x: int = 4  #: Gx, cells along the depth
     cells_y: int = 6  #: Gy, cells along the width
     margin: float = 0.035  #: m, keep-out band along the walls excluded from the grid
+
+    @staticmethod
+    def for_shelf(shelf: ShelfConfig, margin: float = 0.035) -> "GridConfig":
+        """The grid scaled to `shelf`: cells of about the paper's size (PAPER_CELL) inside the
+        margin, at least one along each axis."""
+        def count(extent: float, cell: float) -> int:
+            return max(1, min(MAX_GRID_CELLS, round((extent - 2 * margin) / cell)))
+
+        return GridConfig(cells_x=count(shelf.depth, PAPER_CELL[0]),
+                          cells_y=count(shelf.width, PAPER_CELL[1]), margin=margin)
+
+
+#: m, the paper's grid cell (depth, width): its 4 x 6 grid on the 0.32 x 0.50 m shelf, inside the
+#: 0.035 m margin
+PAPER_CELL = ((0.32 - 2 * 0.035) / 4, (0.50 - 2 * 0.035) / 6)
 
 
 #: m, the planners' clearance: the motion level's 1 mm plus 0.5 mm (see GripperConfig)
@@ -142,7 +160,11 @@ RESERVED_NAMES = frozenset({"world", "shelf", "ground", "ur5e", "gripper_2f85", 
 MAX_OBJECTS = 40
 MAX_GRID_CELLS = 32  #: per axis
 MAX_APPROACH_ANGLES = 36
-MAX_SHELF_SIZE = 2.0  #: m, inner depth, width and height
+MAX_SHELF_SIZE = 2.0  #: m, bound of object coordinates (the footprint check is the real one)
+#: m, (smallest, largest) inner depth, width and height of a shelf: the range the station can
+#: place the UR5e for (`placement.py` checks each shelf's grid by IK; a deeper or wider one
+#: within these bounds can still be refused, naming the cells out of reach)
+SHELF_BOUNDS = {"depth": (0.15, 0.60), "width": (0.15, 1.00), "height": (0.10, 0.60)}
 MIN_OBJECT_SIZE = 0.005  #: m, smallest radius, side or height (smaller is not seen at 128x128)
 MAX_MASS = 50.0  #: kg
 #: m, deepest interpenetration of two footprints that still counts as contact: objects that touch
@@ -187,14 +209,14 @@ def _validate_frame(scenario: Scenario) -> None:
         _fail("name", f"must be 1 to 64 printable characters, got {scenario.name!r}")
     _integer("seed", scenario.seed, 0, 2**63 - 1)
     shelf = scenario.shelf
-    for field in ("depth", "width", "height"):
-        _number(f"shelf.{field}", getattr(shelf, field), 0.0, MAX_SHELF_SIZE, low_open=True)
+    for field, (low, high) in SHELF_BOUNDS.items():
+        _number(f"shelf.{field}", getattr(shelf, field), low, high)
     _number("shelf.wall_thickness", shelf.wall_thickness, 0.0, 0.2, low_open=True)
     _number("shelf.floor_height", shelf.floor_height, 0.0, 1.5)
     grid = scenario.grid
     _integer("grid.cells_x", grid.cells_x, 1, MAX_GRID_CELLS)
     _integer("grid.cells_y", grid.cells_y, 1, MAX_GRID_CELLS)
-    _number("grid.margin", grid.margin, 0.0, MAX_SHELF_SIZE)
+    _number("grid.margin", grid.margin, 0.0, SHELF_BOUNDS["width"][1])
     if grid.margin >= min(shelf.depth, shelf.width) / 2:
         _fail("grid.margin", "leaves no room for the grid")
     gripper = scenario.gripper
@@ -303,18 +325,34 @@ def save_scenario(scenario: Scenario, path: str | Path) -> None:
     atomic_write_text(path, yaml_dump_typed(scenario))
 
 
+def _scale_unset_grid(scenario: Scenario, data) -> None:
+    """The grid's cell counts the file does not set, scaled to its shelf (`GridConfig.for_shelf`)."""
+    grid = data.get("grid") if isinstance(data, dict) else None
+    grid = grid if isinstance(grid, dict) else {}
+    if isinstance(scenario.grid.margin, (int, float)) and isinstance(scenario.shelf, ShelfConfig):
+        try:
+            scaled = GridConfig.for_shelf(scenario.shelf, float(scenario.grid.margin))
+        except (TypeError, ValueError, ArithmeticError):  # malformed: validation names it
+            return
+        for field in ("cells_x", "cells_y"):
+            if field not in grid:
+                setattr(scenario.grid, field, getattr(scaled, field))
+
+
 def load_scenario(path: str | Path, overlaps: bool = True) -> Scenario:
     """Load and validate a scenario YAML file (`validate`, with `overlaps`); raise ScenarioError
     on any problem."""
-    from pydrake.common.yaml import yaml_load_typed
+    from pydrake.common.yaml import yaml_load, yaml_load_typed
 
     path = Path(path)
     if not path.is_file():
         raise ScenarioError(f"scenario file not found: {path}")
     try:
         scenario = yaml_load_typed(schema=Scenario, filename=str(path))
+        data = yaml_load(filename=str(path))
     except Exception as err:  # Drake raises RuntimeError with a multi-line message
         raise ScenarioError(f"malformed scenario YAML {path}: {first_line(err)}") from None
+    _scale_unset_grid(scenario, data)
     try:
         validate(scenario, overlaps)
     except ScenarioError as err:

@@ -29,6 +29,7 @@ from tsad_drake.execution.world import GeometricWorld, retrieval_angles
 from tsad_drake.motion.causes import failure_cause
 from tsad_drake.motion.verify import ActionMotion, is_pick_failure, ready_q, retrieval_motion
 from tsad_drake.motion.verify import verify_plan as verify_motions
+from tsad_drake.placement import placed_config
 from tsad_drake.plan_format import action_json, check_actions
 from tsad_drake.planning.types import Action
 from tsad_drake.run_config import RunConfig, default_run_config
@@ -250,17 +251,18 @@ def verify_plan(scenario: Scenario, actions: list[Action], world: str = "none",
         theta_retrieve: rad, the retrieval angle; None: any angle (the clear one first).
         keep_going: skip a refused action instead of stopping there.
         config: motion, station and physics settings (default: `default_run_config()`, what
-            `tsad plan` runs with).
+            `tsad plan` runs with); the station is placed for the shelf (`placement`).
         progress: called with (index, motion) after each action's motion planning.
 
     Returns:
         The report (`to_json()` is report.json). Raises PlanFormatError (a ValueError) for an
-        unknown object or a placement outside the shelf, ValueError for an unknown world.
+        unknown object or a placement outside the shelf, ValueError for an unknown world,
+        PlacementError when the arm cannot reach the whole shelf from any base pose.
     """
     if world not in VERIFY_WORLDS:
         raise ValueError(f"unknown world {world!r}: use one of {', '.join(VERIFY_WORLDS)}")
     check_actions(scenario, actions)
-    config = config or default_run_config()
+    config = placed_config(scenario, config or default_run_config())
     start = time.perf_counter()
     X_WS = config.station.X_WS(scenario.shelf.floor_height)
     motions = verify_motions(scenario, actions, config.motion, X_WS, progress,

@@ -264,9 +264,11 @@ def start_meshcat(scenario, config):
     from pydrake.geometry import Meshcat, MeshcatParams
 
     from tsad_drake.motion.export import SceneLayout
+    from tsad_drake.placement import placed_config
 
     meshcat = Meshcat(MeshcatParams(host="localhost"))
-    layout = SceneLayout(scenario, config.station.X_WS(scenario.shelf.floor_height), meshcat)
+    station = placed_config(scenario, config).station
+    layout = SceneLayout(scenario, station.X_WS(scenario.shelf.floor_height), meshcat)
     layout.set_objects(scenario.objects)
     layout.diagram.ForcedPublish(layout.context)
     print(f"meshcat: {meshcat.web_url()} (the motion plays there once planned)", flush=True)

@@ -78,9 +78,11 @@ def cmd_verify(args: argparse.Namespace) -> int:
     out = prepare_out_dir(args.out)
     from tsad_drake.motion.export import write_scene_directives
     from tsad_drake.motion.replay import write_replay_html
+    from tsad_drake.placement import placed_config
     from tsad_drake.verification import verify_plan
 
     scenario = plan.scenario
+    config = placed_config(scenario, config)  # where the robot stands for this shelf
     count = len(plan.actions)
 
     def progress(i: int, motion) -> None:

@@ -144,16 +144,21 @@ class KeyframeError(RuntimeError):
     """No collision-free IK solution for a keyframe (the message names the closest pair)."""
 
 
-def solve_keyframe(model: MotionModel, X_WT: RigidTransform, previous: np.ndarray,
-                   finger: float) -> np.ndarray:
-    """Full position vector putting the tcp at X_WT with the fingers at `finger`.
+def reach_keyframe(model: MotionModel, X_WT: RigidTransform, previous: np.ndarray,
+                   finger: float, retry_unreachable: bool = True
+                   ) -> tuple[np.ndarray | None, bool]:
+    """(full positions, collision-free) putting the tcp at X_WT with the fingers at `finger`:
+    the first collision-free solution, else the first one found (False), else (None, False).
 
     Tries each seed without the distance constraint first (fast; kept when the checker finds it
     collision-free), then with the checker's MinimumDistanceLowerBoundConstraint (its padding is
-    each pair's clearance). Raises KeyframeError naming the closest body pair of the best pose.
+    each pair's clearance); `retry_unreachable` False skips the second pass when the first found
+    no solution at all (the pose is then out of the arm's reach for these seeds).
     """
     best = None
     for with_collision in (False, True):
+        if with_collision and best is None and not retry_unreachable:
+            break
         for seed in seeds(previous, model.config):
             prog, q = _ik_program(model, X_WT, previous, finger, with_collision)
             prog.SetInitialGuess(q, model.full_q(seed, finger))
@@ -162,8 +167,18 @@ def solve_keyframe(model: MotionModel, X_WT: RigidTransform, previous: np.ndarra
                 continue
             solution = result.GetSolution(q)
             if model.checker.CheckConfigCollisionFree(solution):
-                return solution
+                return solution, True
             best = solution if best is None else best
+    return best, False
+
+
+def solve_keyframe(model: MotionModel, X_WT: RigidTransform, previous: np.ndarray,
+                   finger: float) -> np.ndarray:
+    """Full position vector putting the tcp at X_WT with the fingers at `finger`, collision-free
+    (`reach_keyframe`). Raises KeyframeError naming the closest body pair of the best pose."""
+    best, free = reach_keyframe(model, X_WT, previous, finger)
+    if free:
+        return best
     if best is None:
         raise KeyframeError("unreachable (no IK solution for the tcp pose)")
     a, b, margin = model.closest_pair(best)
