@@ -201,11 +201,11 @@ def test_rerun_resumes_and_reruns_rows_of_another_scene(tmp_path):
 
     lines = rows_path.read_text().splitlines()
     assert json.loads(lines[-1]) == third["rows"][1]
-    assert set(_load_rows(rows_path, _gp3_specs([0, 1]))) == {0, 1}
+    assert set(_load_rows(rows_path, _gp3_specs([0, 1]))) == {("3", 0), ("3", 1)}
     # a row from before rows recorded their scene's digest cannot be matched: it is run again
     undigested = {k: v for k, v in json.loads(lines[-1]).items() if k != "scene_digest"}
     rows_path.write_text(lines[0] + "\n" + json.dumps(undigested) + "\n")
-    assert set(_load_rows(rows_path, _gp3_specs([0, 1]))) == {0}
+    assert set(_load_rows(rows_path, _gp3_specs([0, 1]))) == {("3", 0)}
 
 
 def test_rows_of_other_network_weights_are_run_again(tmp_path):
@@ -225,9 +225,9 @@ def test_rows_of_other_network_weights_are_run_again(tmp_path):
     undigested = {**rows[1], "weights_digest": None}  # a row from before rows recorded it
     rows_path.write_text("".join(json.dumps(r) + "\n" for r in rows))
     assert len(weights_digest()) == 12
-    assert set(_load_rows(rows_path, specs)) == {0}
+    assert set(_load_rows(rows_path, specs)) == {("3", 0)}
     rows_path.write_text("".join(json.dumps(r) + "\n" for r in (rows[0], undigested)))
-    assert set(_load_rows(rows_path, specs)) == {0}
+    assert set(_load_rows(rows_path, specs)) == {("3", 0)}
 
 
 def test_bench_on_a_scenario_yaml_runs_the_same_scene_every_seed(tmp_path):

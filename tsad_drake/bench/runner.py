@@ -1,12 +1,15 @@
 """`tsad bench`: many episodes of one planner on one scenario, resumable and parallel.
 
+A scenario is a built-in name (a scene generated per seed), one scenario YAML file (the same scene
+every seed) or a folder of scene files (one episode per file, each with its own seed).
+
 Rows stream to `<out>.rows.jsonl` as episodes finish; a rerun with the same settings skips the
-seeds already there, so an interrupted bench resumes where it stopped. An episode that raises is
-recorded as a failure with its reason. The final `<out>` JSON (rows + summary + machine) is
-written atomically once every episode is in.
+episodes (scene, seed) already there, so an interrupted bench resumes where it stopped. An episode
+that raises is recorded as a failure with its reason. The final `<out>` JSON (rows + summary +
+machine) is written atomically once every episode is in.
 
 Backends: `process` (a local process pool) or `ray` (Ray tasks on a local Ray or on the cluster at
-RAY_ADDRESS). Either way one row per (settings, seed): a resumed or split run never loses or
+RAY_ADDRESS). Either way one row per (settings, scene, seed): a resumed or split run never loses or
 doubles an episode, and the same seeds give the same rows on both.
 
 Workers: each pins its CPU threads and asks the kernel to kill it when the bench's main process
@@ -46,6 +49,8 @@ from tsad_drake.scenes import BUILTIN_SCENARIOS, generate_scenario
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
              "closed_loop", "motion", "world", "variant", "sensor", "segmentation",
              "config_digest")
+#: the keys every episode of one bench shares (a folder bench's episodes differ in `scenario`)
+SETTINGS_KEYS = tuple(k for k in SPEC_KEYS if k != "scenario")
 
 
 @dc.dataclass(frozen=True)
@@ -67,9 +72,23 @@ class EpisodeSpec:
     segmentation: str = "label"  #: label (renderer's labels) | cluster (point cloud alone)
     #: every component's settings (`--config`/`--set`); None: the defaults of the names above
     config: RunConfig | None = None
+    #: a folder bench's folder (resolved path), `scenario` one scene file in it; None otherwise
+    scenes: str | None = None
 
     def key(self) -> tuple:
         return tuple(getattr(self, k) for k in SPEC_KEYS)
+
+    @property
+    def episode(self) -> tuple[str, int]:
+        """(scenario, seed): what tells the episodes of one bench apart (a row per episode)."""
+        return self.scenario, self.seed
+
+    @property
+    def scene_file(self) -> str | None:
+        """A folder bench's scene file, relative to its folder (`a.yaml`); None otherwise."""
+        if self.scenes is None:
+            return None
+        return str(Path(self.scenario).relative_to(self.scenes))
 
     def settings(self) -> EpisodeSettings:
         """The episode's settings (the names and the config above)."""
@@ -124,6 +143,8 @@ def run_spec(spec: EpisodeSpec) -> dict:
                "traceback": traceback.format_exc(limit=6)}
     row.update({k: getattr(spec, k) for k in SPEC_KEYS})
     row["seed"] = spec.seed
+    if spec.scenes is not None:
+        row["scene_file"] = spec.scene_file
     row["wall_time_s"] = time.perf_counter() - t0
     return row
 
@@ -162,27 +183,30 @@ def check_bench_out(path: str | Path) -> Path:
 def _valid_row(row) -> bool:
     """A row as `run_spec` writes it (anything else in the rows file is skipped and run again)."""
     return (isinstance(row, dict) and isinstance(row.get("seed"), int)
+            and isinstance(row.get("scenario"), str)
             and isinstance(row.get("success"), bool) and isinstance(row.get("num_actions"), int)
             and isinstance(row.get("falls"), int)
             and isinstance(row.get("planning_time_s"), (int, float)))
 
 
-def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
-    """Rows of `path` that belong to this run: same settings and the same scene (the row's recorded
-    scene digest; a row from before a generator change, or from before rows recorded the digest,
-    is run again); a network row must record the shipped weights' digest (a row of other weights,
-    or from before rows recorded it, is run again); a row without a config digest (from before
-    configs were recorded) counts as the defaults of its settings, so it serves a run with the
-    default config and no other. Lines that are not rows (cut off by an
-    interruption, `null`, edited by hand) are skipped: those episodes run again."""
+def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[tuple[str, int], dict]:
+    """Rows of `path` that belong to this run, by episode ((scenario, seed), `EpisodeSpec.episode`):
+    the settings of `specs[0]`, one of the episodes of `specs` and the same scene (the row's
+    recorded scene digest; a row from before a generator change, from before rows recorded the
+    digest, or of a scene file changed since, is run again); a network row must record the
+    shipped weights' digest (a row of other weights, or from before rows recorded it, is run
+    again); a row without a config digest (from before configs were recorded) counts as the
+    defaults of its settings, so it serves a run with the default config and no other. Lines that
+    are not rows (cut off by an interruption, `null`, edited by hand) are skipped: those episodes
+    run again."""
     if not path.exists():
         return {}
     try:
         text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as err:
         raise InputFileError(f"cannot read bench rows {path}: {err.strerror}") from None
-    by_seed = {s.seed: s for s in specs}
-    wanted = specs[0].key()
+    by_episode = {s.episode: s for s in specs}
+    wanted = tuple(getattr(specs[0], k) for k in SETTINGS_KEYS)
     defaults = {f.name: f.default for f in dc.fields(EpisodeSpec)}  # keys added since a row
     # a row from before rows recorded their config ran with the defaults of its selectors
     defaults["config_digest"] = dc.replace(specs[0], config=None).config_digest
@@ -194,16 +218,17 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[int, dict]:
             continue  # a line cut off by an interruption
         if not _valid_row(row):
             continue
-        if (tuple(row.get(k, defaults.get(k)) for k in SPEC_KEYS) != wanted
-                or row.get("seed") not in by_seed):
+        episode = (row.get("scenario"), row["seed"])
+        if (tuple(row.get(k, defaults.get(k)) for k in SETTINGS_KEYS) != wanted
+                or episode not in by_episode):
             continue
         digest, weights = row.get("scene_digest"), row.get("weights_digest")
         if weights is not None or row.get("feasibility") == "net":
             current = current or weights_digest(shipped_weights(specs[0].sensor))
             if weights != current:
                 continue
-        if digest is not None and digest == scene_digest(spec_scenario(by_seed[row["seed"]])):
-            done[row["seed"]] = row
+        if digest is not None and digest == scene_digest(spec_scenario(by_episode[episode])):
+            done[episode] = row
     return done
 
 
@@ -289,7 +314,9 @@ def _run_ray(todo: list[EpisodeSpec], workers: int, threads: int, record) -> Non
 
 def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
               progress: bool = True, threads: int = 1, backend: str = "process") -> dict:
-    """Run `specs` (same settings, different seeds), streaming rows; return the result document.
+    """Run `specs` (same settings, different seeds; a folder bench's also different scene files),
+    streaming rows; return the result document (a folder bench's names the folder as its
+    scenario and lists its scene files as `scenes`).
 
     Raises:
         KeyboardInterrupt: on Ctrl-C, once the workers are gone; its message says how many
@@ -307,17 +334,21 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
             f.seek(-1, os.SEEK_END)
             if f.read(1) != b"\n":
                 f.write(b"\n")
-    todo = [s for s in specs if s.seed not in done]
+    todo = [s for s in specs if s.episode not in done]
+    scenes = specs[0].scenes
+    where = f"s{specs[0].scenario}" if scenes is None else f"{Path(scenes).name}/"
     bar = tqdm(total=len(specs), initial=len(specs) - len(todo), disable=not progress,
-               desc=f"{specs[0].planner} s{specs[0].scenario}", unit="ep")
+               desc=f"{specs[0].planner} {where}", unit="ep")
 
     def record(row: dict) -> None:
-        done[row["seed"]] = row
+        done[(row["scenario"], row["seed"])] = row
         folder.append_line(rows_path.name, json.dumps(row))
         ok = sum(r["success"] for r in done.values())
         bar.set_postfix(success=f"{ok}/{len(done)}")
         bar.update(1)
-        debug(f"seed {row['seed']}: {'success' if row['success'] else row['failure_reason']}, "
+        scene = f" ({row['scene_file']})" if "scene_file" in row else ""
+        debug(f"seed {row['seed']}{scene}: "
+              f"{'success' if row['success'] else row['failure_reason']}, "
               f"{row['num_actions']} actions, {row['falls']} falls, "
               f"{row.get('wall_time_s', 0.0):.1f} s")
 
@@ -338,12 +369,17 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
                          f"{len(done)} {kept}") from None
     finally:
         bar.close()
-    rows = [done[s.seed] for s in specs]
+    rows = [done[s.episode] for s in specs]
     config = specs[0].run_config()
-    document = {"spec": {k: getattr(specs[0], k) for k in SPEC_KEYS},
+    spec = {k: getattr(specs[0], k) for k in SPEC_KEYS}
+    if scenes is not None:  # a folder bench: `tsad report` groups its rows under the folder
+        spec["scenario"] = scenes
+    document = {"spec": spec,
                 "config": None if config is None else run_config_record(config),
                 "seeds": [s.seed for s in specs], "machine": machine_info(), "threads": threads,
                 "backend": backend, "workers": workers,
                 "summary": summarise(rows), "rows": rows}
+    if scenes is not None:
+        document["scenes"] = [s.scene_file for s in specs]
     atomic_write_text(out, json.dumps(document, indent=1))
     return document

@@ -57,7 +57,10 @@ def is_builtin(spec: str) -> bool:
 def check_occluded(scenario: str, occluded: bool) -> None:
     """--occluded only with a built-in scenario that has an occluded variant."""
     if occluded and scenario not in OCCLUDED_SCENARIOS:
-        what = "a scenario YAML file" if not is_builtin(scenario) else f"scenario {scenario}"
+        if is_builtin(scenario):
+            what = f"scenario {scenario}"
+        else:
+            what = "a folder of scene files" if Path(scenario).is_dir() else "a scenario YAML file"
         raise UsageError(f"--occluded generates scenes of scenario {', '.join(OCCLUDED_SCENARIOS)}; "
                          f"it does not apply to {what}")
 

@@ -33,6 +33,7 @@ OBSERVERS = ("drake", "raycast")
 WORLD_NAMES = ("geometric", "physics")
 MAX_ACTIONS = 100  #: largest --max-actions
 MAX_EPISODES = 10_000  #: largest --episodes
+DEFAULT_EPISODES = 30  #: --episodes when none is given (a folder bench: one per scene file)
 MAX_WORKERS = 64  #: largest --workers
 #: where bench episodes run (`bench.runner.run_bench`)
 BACKEND_NAMES = ("process", "ray")
@@ -128,11 +129,15 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                            "summary to FILE.json. Rows stream to FILE.json.rows.jsonl, so an "
                            "interrupted bench resumes where it stopped."))
     p.add_argument("--scenario", required=True,
-                   help="built-in scenario 1, 2, 3 or real (a scene generated per seed), or a "
+                   help="built-in scenario 1, 2, 3 or real (a scene generated per seed), a "
                         "scenario YAML file (the same scene every episode; the seeds vary the "
-                        "planner and the sensor noise)")
-    p.add_argument("--episodes", type=int, default=30,
-                   help=f"number of episodes (1 to {MAX_EPISODES}; default 30)")
+                        "planner and the sensor noise), or a folder of scene files (*.yaml, "
+                        "*.yml directly in it; one episode per file in name order, file i with seed "
+                        "--seed-start + i)")
+    p.add_argument("--episodes", type=int, default=None,
+                   help=f"number of episodes (1 to {MAX_EPISODES}; default "
+                        f"{DEFAULT_EPISODES}, with a folder every file in it: N runs its first "
+                        f"N files)")
     p.add_argument("--seed-start", type=int, default=0, help="first seed (default 0)")
     p.add_argument("--occluded", action="store_true",
                    help="scenes with the target fully hidden (the paper's section VI-D)")
@@ -302,15 +307,49 @@ def physics_line(m: dict) -> str:
     return "; ".join(parts)
 
 
+def folder_scenes(folder: Path, episodes: int | None) -> list[Path]:
+    """A folder bench's scene files: the `*.yaml` and `*.yml` files directly in `folder` (resolved),
+    sorted by name, the first `episodes` of them (None: all); each loaded before any work, so a
+    folder without one, or a file that does not load, is one line naming it."""
+    from tsad_drake.scenario import load_scenario
+
+    folder = folder.resolve()
+    try:
+        files = sorted((p for p in folder.iterdir()
+                        if p.suffix in (".yaml", ".yml") and p.is_file()), key=lambda p: p.name)
+    except OSError as err:
+        raise UsageError(f"cannot read the scene folder {folder}: {err.strerror}") from None
+    if not files:
+        raise UsageError(f"--scenario {folder}: the folder holds no scene file (*.yaml, *.yml)")
+    if episodes is not None and episodes > len(files):
+        raise UsageError(f"--episodes {episodes}: the folder {folder} holds {len(files)} scene "
+                         "files")
+    files = files[:episodes]
+    for path in files:
+        load_scenario(path)  # ScenarioError naming the file
+    return files
+
+
 def bench_specs(args: argparse.Namespace) -> tuple[list, Path]:
-    """`tsad bench`'s flags checked (everything, before any work): its episodes and its --out."""
+    """`tsad bench`'s flags checked (everything, before any work): its episodes and its --out.
+    A folder as --scenario runs one episode per scene file (`folder_scenes`), file i with seed
+    --seed-start + i."""
     from tsad_drake.bench.runner import EpisodeSpec, check_bench_out
     from tsad_drake.scenes import BUILTIN_SCENARIOS
 
     check_occluded(args.scenario, args.occluded)
-    if args.scenario not in BUILTIN_SCENARIOS:  # a YAML scene: checked (and refused) before work
+    scenes = None  # a folder bench's folder
+    if args.scenario not in BUILTIN_SCENARIOS and Path(args.scenario).is_dir():
+        if args.episodes is not None:
+            check_int("--episodes", args.episodes, 1, MAX_EPISODES)
+        scenarios = [str(p) for p in folder_scenes(Path(args.scenario), args.episodes)]
+        scenes = str(Path(args.scenario).resolve())
+        args.episodes = len(scenarios)
+    elif args.scenario not in BUILTIN_SCENARIOS:  # a YAML scene: checked (and refused) before work
         resolve_scenario(args.scenario, 0)
         args.scenario = str(Path(args.scenario).resolve())
+    if args.episodes is None:
+        args.episodes = DEFAULT_EPISODES
     check_int("--episodes", args.episodes, 1, MAX_EPISODES)
     check_int("--workers", args.workers, 1, MAX_WORKERS)
     if args.backend == "ray" and importlib.util.find_spec("ray") is None:
@@ -318,15 +357,17 @@ def bench_specs(args: argparse.Namespace) -> tuple[list, Path]:
     check_seeds("--seed-start", args.seed_start, args.episodes)
     config = _check_planner_args(args)
     out = check_bench_out(args.out)
-    specs = [EpisodeSpec(scenario=args.scenario, seed=args.seed_start + i, planner=args.planner,
+    if scenes is None:  # a built-in scenario or one YAML file: the same name every episode
+        scenarios = [args.scenario] * args.episodes
+    specs = [EpisodeSpec(scenario=scenario, seed=args.seed_start + i, planner=args.planner,
                          feasibility=args.feasibility, ablation=args.ablation,
                          variant=args.variant, sensor=args.sensor,
                          segmentation=args.segmentation,
                          observer=args.observer, occluded=args.occluded,
                          closed_loop=not args.open_loop,
                          motion=args.motion or args.world == "physics", world=args.world,
-                         config=config)
-             for i in range(args.episodes)]
+                         config=config, scenes=scenes)
+             for i, scenario in enumerate(scenarios)]
     return specs, out
 
 
@@ -338,6 +379,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     document = run_bench(specs, out, workers=args.workers, threads=args.threads,
                          progress=show_progress(), backend=args.backend)
     label = args.planner if args.ablation == "none" else f"{args.planner} ({args.ablation})"
+    if "scenes" in document:  # a folder bench: the table is the folder's
+        print(f"scenes: {Path(document['spec']['scenario']).name}/ "
+              f"({len(document['scenes'])} scene files)")
     print(paper_table({label: document["summary"]}))
     print(f"wrote {out}")
     return 0
