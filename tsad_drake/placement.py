@@ -9,7 +9,8 @@ keyframes within the joint limits. A reached grasp whose every solution found to
 or the ground is *blocked by contact*: it is reported, not refused, since the motion level
 verifies each action at plan time and refuses those (the narrow `real` shelf has three, where the
 wrist meets the side walls at the back row). The observation viewpoints must be reachable too
-(`station_ik.solve_observation_poses`).
+(`station_ik.solve_observation_poses`), and the ready pose every plan starts from
+(`motion.verify.ready_q`).
 
 The configured `StationConfig.shelf_distance` is kept when everything is reached from it (every
 built-in scenario's shelf); otherwise the robot moves along the shelf's axis to the first of
@@ -63,7 +64,8 @@ class ReachReport:
     contact: list[Grasp] = dc.field(default_factory=list)  #: reached only touching the shelf
     #: (grasp, keyframe) -> full motion-plant positions of every reached keyframe
     solutions: dict[tuple[Grasp, str], np.ndarray] = dc.field(default_factory=dict)
-    views: str = ""  #: why the observation viewpoints cannot be reached ("": they can)
+    #: why the observation viewpoints or the ready pose cannot be reached ("": they can)
+    views: str = ""
     complete: bool = True  #: False: stopped at the first unreachable grasp
 
     @property
@@ -125,8 +127,9 @@ def reach_report(scenario: Scenario, station: StationConfig, motion, distance: f
                  stop_at_first: bool = False) -> ReachReport:
     """What the arm reaches with the shelf at `distance` (m): every grasp of `grasps`, and the
     observation viewpoints (`stop_at_first`: stop at the first grasp out of reach)."""
-    from tsad_drake.motion.keyframes import keyframe_targets
+    from tsad_drake.motion.keyframes import KeyframeError, keyframe_targets
     from tsad_drake.motion.scene import MotionModel
+    from tsad_drake.motion.verify import ready_q
     from tsad_drake.station_ik import ObservationPoseError, solve_observation_poses
 
     placed = dc.replace(station, shelf_distance=float(distance))
@@ -165,6 +168,10 @@ def reach_report(scenario: Scenario, station: StationConfig, motion, distance: f
                                 np.radians(placed.ik_orientation_tolerance_deg))
     except ObservationPoseError as err:
         report.views = str(err)
+    try:
+        ready_q(scenario, [], motion, X_WS)
+    except KeyframeError as err:
+        report.views = report.views or f"the ready pose: {err}"
     return report
 
 
@@ -242,9 +249,9 @@ def _refusal(scenario: Scenario, report: ReachReport) -> str:
     shelf = scenario.shelf
     what = (f"{len(report.unreachable)} of {report.checked} cell-angle grasps are out of the "
             f"arm's reach ({_names(report.unreachable)})" if report.unreachable
-            else f"the observation viewpoints cannot be reached ({report.views})")
+            else f"the arm cannot take its poses outside the shelf ({report.views})")
     return (f"no robot placement reaches the whole {shelf.width:.2f} x {shelf.depth:.2f} m shelf "
             f"(floor at {shelf.floor_height:.2f} m; shelf distances "
             f"{', '.join(f'{d:.2f}' for d in CANDIDATE_DISTANCES)} m tried): from "
-            f"{report.shelf_distance:.2f} m {what}; make the shelf shallower or narrower, or set "
-            "grid.margin / grid.cells_x / grid.cells_y to keep the grid within reach")
+            f"{report.shelf_distance:.2f} m {what}; lower the shelf, make it shallower or narrower, or "
+            "set grid.margin / grid.cells_x / grid.cells_y to keep the grid within reach")

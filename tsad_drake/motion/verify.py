@@ -43,8 +43,20 @@ from tsad_drake.scenario import CONTACT_TOLERANCE, ObjectConfig, Scenario
 from tsad_drake.station import StationConfig
 from tsad_drake.station_models import FINGER_OPEN, X_SO
 
-#: m, tcp of the ready configuration in S (outside the shelf, facing it); every plan starts there
+#: m, tcp of the ready configuration in S (outside the shelf, facing it) with the station's
+#: default 0.70 m shelf distance; every plan starts there
 READY_TCP_S = (-0.15, 0.0, 0.15)
+#: m, the ready tcp stays at least this far in front of the shelf when the robot stands nearer
+READY_OUTSIDE = 0.05
+
+
+def ready_tcp_S(X_WS: RigidTransform) -> np.ndarray:
+    """The ready tcp position in S: where READY_TCP_S is for the default station, in front of
+    the robot's base (a robot placed nearer the shelf keeps it there, at least READY_OUTSIDE in
+    front of the shelf; nearer its base the arm cannot point the tool at the shelf)."""
+    default_x = StationConfig().shelf_distance + READY_TCP_S[0]  # m, along world x
+    x = min(default_x - float(X_WS.translation()[0]), -READY_OUTSIDE)
+    return np.array([x, READY_TCP_S[1], READY_TCP_S[2]])
 
 
 @dc.dataclass
@@ -367,7 +379,7 @@ def ready_q(scenario: Scenario, objects: list[ObjectConfig], config: MotionConfi
     config = config or MotionConfig()
     X_WS = X_WS if X_WS is not None else StationConfig().X_WS(scenario.shelf.floor_height)
     model = MotionModel(scenario.shelf, X_WS, objects, config)
-    return solve_keyframe(model, X_WS @ RigidTransform(R_SG(0.0), list(READY_TCP_S)),
+    return solve_keyframe(model, X_WS @ RigidTransform(R_SG(0.0), ready_tcp_S(X_WS)),
                           np.asarray(config.home_q), FINGER_OPEN)
 
 
