@@ -25,7 +25,9 @@ SCENES_PER_SCENARIO = 100
 
 def _check_invariants(scenario):
     shelf, cfg = scenario_defaults(scenario.name)
-    assert len(scenario.objects) == cfg.num_objects
+    low, high = cfg.num_objects_range
+    assert (low <= len(scenario.objects) <= high if high
+            else len(scenario.objects) == cfg.num_objects)
     polys = [o.footprint() for o in scenario.objects]
     for obj, poly in zip(scenario.objects, polys):
         assert obj.height < shelf.height
@@ -42,7 +44,10 @@ def _check_invariants(scenario):
                for th in scenario.approach_angles)
     assert min(len(target_blockers(scenario, th)) for th in scenario.approach_angles) >= 1
     visible = target_visibility(scenario, CameraConfig(), 0.0)
-    assert cfg.min_visible <= visible <= cfg.max_visible
+    if cfg.hidden_in_front:  # (tests/test_wide_scenario.py checks it is in view when alone)
+        assert visible == 0.0
+    else:
+        assert cfg.min_visible <= visible <= cfg.max_visible
     return cfg
 
 
@@ -52,15 +57,16 @@ def _unchecked(name):
 
 
 #: seeds the default suite checks per scenario (0.8 s a scene); the slow tests check the rest of
-#: SCENES_PER_SCENARIO, and the `real` layout (not in the headline rows) entirely
+#: SCENES_PER_SCENARIO, and the `real` and `wide` layouts (not in the headline rows) entirely
+#: (tests/test_wide_scenario.py checks eight wide scenes in the default suite)
 DEFAULT_SCENES = 25
 
 
 def _invariant_cases():
     for name in BUILTIN_SCENARIOS:
-        if name != "real":
+        if name not in ("real", "wide"):
             yield pytest.param(name, range(DEFAULT_SCENES), id=f"{name}-first")
-        first = 0 if name == "real" else DEFAULT_SCENES
+        first = 0 if name in ("real", "wide") else DEFAULT_SCENES
         yield pytest.param(name, range(first, SCENES_PER_SCENARIO), id=f"{name}-rest",
                            marks=pytest.mark.slow)
 

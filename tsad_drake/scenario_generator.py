@@ -1,4 +1,4 @@
-"""Seeded generator for the paper's scenarios (1, 2, 3, real) and their occluded variants.
+"""Seeded generator for the paper's scenarios (1, 2, 3, real), their occluded variants and the wide shelf.
 
 Object kinds and size ranges (metres; the gripper stroke is 0.085 with a 0.005 grasp margin, so an
 object fits the fingers when its width across the approach is at most 0.080):
@@ -71,7 +71,9 @@ from tsad_drake.viewpoints import (
 #: (scene, node budget) -> whether the scene can be solved with the placements the shelf offers
 SolvabilityCheck = Callable[[Scenario, int], bool]
 
-BUILTIN_SCENARIOS = ("1", "2", "3", "real")
+BUILTIN_SCENARIOS = ("1", "2", "3", "real", "wide")
+#: the `wide` scenario's shelf: 0.75 m wide, 0.36 m deep (a 5 x 9 grid of the paper's cells)
+WIDE_SHELF = ShelfConfig(depth=0.36, width=0.75, height=0.36)
 
 
 @dc.dataclass
@@ -79,6 +81,11 @@ class GeneratorConfig:
     """How dense and how hard generated scenes are."""
 
     num_objects: int = 10  #: objects on the shelf, target included
+    #: (low, high): each scene draws its number of objects in this range (0, 0: num_objects)
+    num_objects_range: tuple[int, int] = (0, 0)
+    #: the target fully hidden in the first (front, theta = 0) view, seen there when alone
+    #: (min_visible and max_visible then do not apply)
+    hidden_in_front: bool = False
     num_blockers: tuple[int, int] = (2, 4)  #: range of objects dropped in front of the target
     min_blockers: int = 1  #: every approach angle to the target is blocked by at least this many
     min_visible: float = 0.10  #: smallest visible fraction of the target from the front view
@@ -126,6 +133,9 @@ def scenario_defaults(name: str) -> tuple[ShelfConfig, GeneratorConfig]:
         return ShelfConfig(), dc.replace(GeneratorConfig(), num_blockers=SCENARIO1_BLOCKERS)
     if name in ("2", "3"):
         return ShelfConfig(), GeneratorConfig()
+    if name == "wide":  # a user's wide shelf: 3-9 objects, the target hidden behind the others
+        return WIDE_SHELF, GeneratorConfig(num_objects_range=(3, 9), num_blockers=(2, 3),
+                                           hidden_in_front=True, free_cells=(2, 45))
     raise ScenarioError(f"unknown scenario {name!r}: use one of {', '.join(BUILTIN_SCENARIOS)} "
                         "or a scenario YAML file")
 
@@ -315,6 +325,17 @@ def removal_solvable(scenario: Scenario) -> bool:
         present &= ~movable
 
 
+def _hidden_in_front(scenario: Scenario, camera: CameraConfig) -> bool:
+    """True when the front view would see the target alone but sees none of it in the scene."""
+    index = scenario.target_index()
+    X_SC = camera_pose(scenario.shelf, camera, 0.0)
+    _, alone = raycast(scenario_prisms(scenario, only=[index]), camera, X_SC)
+    if not np.any(alone == index):
+        return False
+    _, full = raycast(scenario_prisms(scenario), camera, X_SC)
+    return not np.any(full == index)
+
+
 def _target_hidden(scenario: Scenario, camera: CameraConfig) -> bool:
     """True when no pixel of the target shows in any view (front view and extremes first)."""
     index = scenario.target_index()
@@ -330,7 +351,8 @@ def generate_scene(name: str, seed: int, solvable: SolvabilityCheck | None,
                    occluded: bool = False, config: GeneratorConfig | None = None,
                    camera: CameraConfig | None = None, shelf: ShelfConfig | None = None,
                    grid: GridConfig | None = None) -> Scenario:
-    """A random scene of built-in scenario `name` ("1", "2", "3" or "real"), reproducible by seed.
+    """A random scene of built-in scenario `name` ("1", "2", "3", "real" or "wide"), reproducible
+    by seed.
 
     `solvable(scene, max_nodes)` is the last check a kept scene passes when the config's
     `solvable_nodes` is positive (`tsad_drake.scenes` gives the `optimal` planner's); None with a
@@ -343,7 +365,10 @@ def generate_scene(name: str, seed: int, solvable: SolvabilityCheck | None,
     cfg = config or default_cfg
     camera = camera or CameraConfig()
     rng = np.random.default_rng([seed, BUILTIN_SCENARIOS.index(name), int(occluded)])
-    base = Scenario(name=name, seed=seed, shelf=shelf or default_shelf, grid=grid or GridConfig(),
+    shelf = shelf or default_shelf
+    # the paper's scenarios keep the paper's 4 x 6 grid; the wide shelf gets cells of its size
+    default_grid = GridConfig.for_shelf(shelf) if name == "wide" else GridConfig()
+    base = Scenario(name=name, seed=seed, shelf=shelf, grid=grid or default_grid,
                     occluded=occluded)
     attempts = cfg.occluded_max_attempts if occluded else cfg.max_attempts
     for _ in range(attempts):
@@ -369,11 +394,13 @@ def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
                   (depth_fraction * shelf.depth, shelf.depth),
                   (-half_w + 0.06, half_w - 0.06)):
         return None
+    count = (int(rng.integers(cfg.num_objects_range[0], cfg.num_objects_range[1] + 1))
+             if cfg.num_objects_range[1] else cfg.num_objects)
     others = [_sample_object(_sample_kind(base.name, i, rng), f"obj{i}", rng)
-              for i in range(cfg.num_objects - 1)]
+              for i in range(count - 1)]
     rng.shuffle(others)
     low, high = cfg.occluded_front if occluded else cfg.num_blockers
-    num_blockers = int(rng.integers(low, high + 1))
+    num_blockers = min(int(rng.integers(low, high + 1)), len(others))
     front_half_width = cfg.occluded_front_half_width if occluded else 0.09
     for k, obj in enumerate(others):
         if k < num_blockers:  # in front of the target, within an approach corridor
@@ -397,6 +424,9 @@ def _attempt(base: Scenario, cfg: GeneratorConfig, camera: CameraConfig,
         return None
     if occluded:
         if not _target_hidden(scenario, camera):
+            return None
+    elif cfg.hidden_in_front:
+        if not _hidden_in_front(scenario, camera):
             return None
     elif not cfg.min_visible <= target_visibility(scenario, camera, 0.0) <= cfg.max_visible:
         return None

@@ -72,7 +72,7 @@ def check_scenario_args(args: argparse.Namespace) -> None:
 
 
 def resolve_scenario(spec: str, seed: int, occluded: bool = False):
-    """A built-in scenario name ("1", "2", "3", "real") with a seed, or a scenario YAML path."""
+    """A built-in scenario name ("1", "2", "3", "real", "wide") with a seed, or a scenario YAML path."""
     from tsad_drake.scenario import load_scenario
     from tsad_drake.scenes import BUILTIN_SCENARIOS, generate_scenario
 
@@ -87,7 +87,7 @@ def resolve_scenario(spec: str, seed: int, occluded: bool = False):
 
 def add_scenario_args(p: argparse.ArgumentParser, required: bool = True) -> None:
     p.add_argument("--scenario", required=required,
-                   help="built-in scenario 1, 2, 3 or real, or the path of a scenario YAML file "
+                   help="built-in scenario 1, 2, 3, real or wide, or the path of a scenario YAML file "
                         "(as written by `tsad scene`)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the generated scene for a built-in scenario, and of the planner "

@@ -129,7 +129,7 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                            "summary to FILE.json. Rows stream to FILE.json.rows.jsonl, so an "
                            "interrupted bench resumes where it stopped."))
     p.add_argument("--scenario", required=True,
-                   help="built-in scenario 1, 2, 3 or real (a scene generated per seed), a "
+                   help="built-in scenario 1, 2, 3, real or wide (a scene generated per seed), a "
                         "scenario YAML file (the same scene every episode; the seeds vary the "
                         "planner and the sensor noise), or a folder of scene files (*.yaml, "
                         "*.yml directly in it; one episode per file in name order, file i with seed "
