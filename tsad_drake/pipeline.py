@@ -140,16 +140,20 @@ class DrakeObserver:
                        config=self.perception, noise_seed=seed).scene
 
 
+#: the observers by name (`--observer`)
+OBSERVER_NAMES = ("drake", "raycast")
+
+
 def make_observer(name: str, scenario: Scenario, segmentation: str = "label",
                   sensor: SensorConfig | None = None, noise_seed: int = 0,
                   perception: PerceptionConfig | None = None,
                   station: StationConfig | None = None) -> Observer:
-    """The observer called `name` ("raycast" or "drake") for scenes like `scenario`."""
+    """The observer called `name` (OBSERVER_NAMES) for scenes like `scenario`."""
     if name == "raycast":
         return RaycastObserver(segmentation, sensor, noise_seed, perception, station)
     if name == "drake":
         return DrakeObserver(scenario, segmentation, sensor, noise_seed, perception, station)
-    raise ValueError(f"unknown observer {name!r}: use raycast or drake")
+    raise ValueError(f"unknown observer {name!r}: use one of {', '.join(OBSERVER_NAMES)}")
 
 
 #: the worlds an episode can act on (`--world`)
@@ -219,13 +223,11 @@ def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
     def model(truth: Scenario, workspace: Workspace) -> FeasibilityModel:
         return make_feasibility(settings.feasibility, truth, workspace, settings.sensor)
 
-    result = run_episode(world, get_planner(settings.planner), model, config.planner, seed,
+    planner = get_planner(settings.planner)
+    result = run_episode(world, planner, model, config.planner, seed,
                          closed_loop=settings.closed_loop,
                          limits=EpisodeLimits(max_actions=settings.max_actions,
-                                              look_again=getattr(config.planner, "look_again", 0),
-                                              reobserve=getattr(config.planner, "reobserve", 0),
-                                              reobserve_unsolvable=getattr(
-                                                  config.planner, "reobserve_unsolvable", 0)),
+                                              **planner.loop_limits(config.planner)),
                          action_check=action_check, feasibility_name=settings.feasibility)
     row = result.to_json()
     if settings.motion:

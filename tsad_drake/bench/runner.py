@@ -27,6 +27,7 @@ import datetime as _dt
 import json
 import multiprocessing as mp
 import os
+import pickle
 import platform
 import signal
 import sys
@@ -39,6 +40,7 @@ from tsad_drake.bench.metrics import summarise
 from tsad_drake.errors import InputFileError, RunFailure, UsageError
 from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
+from tsad_drake.plugins import load_plugin
 from tsad_drake.prehensile.checkpoint import shipped_weights, weights_digest
 from tsad_drake.run_config import RunConfig, config_digest, run_config_record
 from tsad_drake.runtime import THREAD_ENV_VARS, VERBOSITY_ENV, debug, pin_threads, verbosity
@@ -72,6 +74,8 @@ class EpisodeSpec:
     segmentation: str = "label"  #: label (renderer's labels) | cluster (point cloud alone)
     #: every component's settings (`--config`/`--set`); None: the defaults of the names above
     config: RunConfig | None = None
+    #: plugins a worker imports before the episode (`tsad --plugin`: a planner of your own)
+    plugins: tuple[str, ...] = ()
     #: a folder bench's folder (resolved path), `scenario` one scene file in it; None otherwise
     scenes: str | None = None
 
@@ -136,6 +140,8 @@ def run_spec(spec: EpisodeSpec) -> dict:
     """Run one episode; never raises (an exception becomes a failure row)."""
     t0 = time.perf_counter()
     try:
+        for plugin in spec.plugins:
+            load_plugin(plugin)
         row = run_named_episode(spec)
     except Exception as err:  # recorded, never fatal to the bench
         row = {"success": False, "failure_reason": f"error: {type(err).__name__}: {err}",
@@ -236,10 +242,14 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[tuple[str, int], di
 PR_SET_PDEATHSIG = 1
 
 
-def _init_worker(threads: int = 1, parent_pid: int | None = None) -> None:
-    """Worker start: pinned threads, dies with the bench's main process, leaves SIGINT to it."""
+def _init_worker(threads: int = 1, parent_pid: int | None = None,
+                 plugins: tuple[str, ...] = ()) -> None:
+    """Worker start: pinned threads, the run's plugins imported (their config types travel in
+    the specs), dies with the bench's main process, leaves SIGINT to it."""
     os.environ.setdefault("MESA_SHADER_CACHE_DISABLE", "true")
     pin_threads(threads)
+    for plugin in plugins:
+        load_plugin(plugin)
     if parent_pid is None:
         return
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C: the main process stops the workers
@@ -261,8 +271,9 @@ def _kill_workers(pool: cf.ProcessPoolExecutor) -> None:
 
 def _run_pool(todo: list[EpisodeSpec], workers: int, threads: int, record) -> None:
     ctx = mp.get_context("spawn")
+    plugins = todo[0].plugins if todo else ()
     pool = cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker,
-                                  initargs=(threads, os.getpid()))
+                                  initargs=(threads, os.getpid(), plugins))
     try:
         futures = [pool.submit(run_spec, s) for s in todo]
         for fut in cf.as_completed(futures):
@@ -273,11 +284,12 @@ def _run_pool(todo: list[EpisodeSpec], workers: int, threads: int, record) -> No
     pool.shutdown()
 
 
-def _ray_episode(spec: EpisodeSpec, threads: int) -> dict:
-    """A Ray task: one episode in a Ray worker process with pinned threads (only the spec and the
-    JSON row cross processes; every Drake object is built and dropped inside the task)."""
-    _init_worker(threads)
-    return run_spec(spec)
+def _ray_episode(spec: bytes, plugins: tuple[str, ...], threads: int) -> dict:
+    """A Ray task: one episode in a Ray worker process with pinned threads (only the pickled spec
+    and the JSON row cross processes; every Drake object is built and dropped inside the task).
+    The spec is unpickled after the plugins are imported: their config types are in it."""
+    _init_worker(threads, plugins=plugins)
+    return run_spec(pickle.loads(spec))
 
 
 def _run_ray(todo: list[EpisodeSpec], workers: int, threads: int, record) -> None:
@@ -300,7 +312,8 @@ def _run_ray(todo: list[EpisodeSpec], workers: int, threads: int, record) -> Non
     try:
         while queue or running:
             while queue and len(running) < workers:
-                running.append(episode.remote(queue.pop(0), threads))
+                spec = queue.pop(0)
+                running.append(episode.remote(pickle.dumps(spec), spec.plugins, threads))
             finished, running = ray.wait(running, num_returns=1)
             try:
                 record(ray.get(finished[0]))

@@ -20,6 +20,7 @@ from tsad_drake.cli.common import (
 )
 from tsad_drake.errors import EXIT_BAD_INPUT, EXIT_INTERRUPTED, RunFailure, UsageError
 from tsad_drake.outputs import prepare_out_dir
+from tsad_drake.plugins import load_plugin, plugins_in
 from tsad_drake.runtime import NORMAL, QUIET, VERBOSE, pin_threads, set_verbosity
 
 
@@ -57,6 +58,10 @@ def build_parser() -> argparse.ArgumentParser:
         "depth camera observes the shelf, perception segments the objects, and TSAD plans which "
         "blockers to move, where, and from which angle."))
     parser.add_argument("--version", action=VersionAction)
+    parser.add_argument("--plugin", action="append", default=[], metavar="FILE.py|MODULE",
+                        help="import a file or module of your own first (repeatable): planners it "
+                             "registers (`planning.registry.register`) run with plan and bench "
+                             "by name (examples/own_planner.py registers `greedy`)")
     loud = parser.add_mutually_exclusive_group()
     loud.add_argument("-q", "--quiet", action="store_true",
                       help="print results and errors only: no progress bars or per-step lines")
@@ -105,6 +110,13 @@ def cmd_render(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Run one `tsad` command; returns its exit status (0 done, 1 a failure that is a result,
     2 bad input, 130 interrupted)."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        for name in plugins_in(argv):  # before the parser: they add names to its choices
+            load_plugin(name)
+    except UsageError as err:
+        print(f"tsad: error: {err}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     parser = build_parser()
     args = parser.parse_args(argv)
     pin_threads(getattr(args, "threads", 1))  # before numpy, torch or Drake load where possible

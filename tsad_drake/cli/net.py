@@ -22,9 +22,9 @@ from tsad_drake.cli.common import (
 )
 from tsad_drake.errors import UsageError
 from tsad_drake.outputs import atomic_write_text, prepare_out_dir, prepare_out_file
+from tsad_drake.pipeline import OBSERVER_NAMES
 from tsad_drake.prehensile.dataset import Sensing
 
-OBSERVERS = ("raycast", "drake")
 MAX_SCENES = 100_000  #: largest --scenes
 
 
@@ -48,7 +48,7 @@ def add_net_parsers(sub) -> None:
     p.add_argument("--scenes", type=int, required=True, help="number of scenes")
     p.add_argument("--seed-start", type=int, default=0, help="first scene seed (default 0)")
     p.add_argument("--out", required=True, help="dataset directory")
-    p.add_argument("--observer", choices=OBSERVERS, default="raycast",
+    p.add_argument("--observer", choices=OBSERVER_NAMES, default="raycast",
                    help="raycast: the NumPy ray caster (fast, same camera and pipeline; default); "
                         "drake: render depth with the Drake station (VTK)")
     add_sensor_arg(p, noise_from="the scene seed", frames=True)
@@ -100,7 +100,7 @@ def add_net_parsers(sub) -> None:
     p.add_argument("--scenes", type=int, default=40, help="number of scenes (default 40)")
     p.add_argument("--seed-start", type=int, default=100_000,
                    help="first scene seed (default 100000; must not overlap the training seeds)")
-    p.add_argument("--observer", choices=OBSERVERS, default="raycast",
+    p.add_argument("--observer", choices=OBSERVER_NAMES, default="raycast",
                    help="raycast (default) or drake rendering")
     add_sensor_arg(p, noise_from="the scene seed", frames=True)
     add_segmentation_arg(p)

@@ -21,16 +21,14 @@ from tsad_drake.cli.common import (
 from tsad_drake.cli.config import add_config_args, effective_config
 from tsad_drake.errors import UsageError
 from tsad_drake.outputs import prepare_out_dir, prepare_out_file
+from tsad_drake.pipeline import FEASIBILITY_NAMES, OBSERVER_NAMES, WORLD_NAMES
+from tsad_drake.planning.registry import ABLATIONS, PLANNERS
+from tsad_drake.planning.tsad_config import VARIANTS
+from tsad_drake.plugins import plugin_reference
 from tsad_drake.runtime import detail, show_progress
 
-PLANNER_NAMES = ("tsad", "gp3", "rots", "rots-star", "rots-star-search", "optimal")
-FEASIBILITY_NAMES = ("net", "geometric", "oracle")
 #: --feasibility when none is given (any other planner: geometric)
 DEFAULT_FEASIBILITY = {"tsad": "net", "optimal": "oracle"}
-ABLATIONS = ("none", "no-ro", "no-re")
-VARIANTS = ("full", "paper")
-OBSERVERS = ("drake", "raycast")
-WORLD_NAMES = ("geometric", "physics")
 MAX_ACTIONS = 100  #: largest --max-actions
 MAX_EPISODES = 10_000  #: largest --episodes
 DEFAULT_EPISODES = 30  #: --episodes when none is given (a folder bench: one per scene file)
@@ -43,7 +41,7 @@ def _add_selector_args(p: argparse.ArgumentParser, sensing: tuple[str, str] = ("
                        ) -> None:
     """The flags that pick a run's config (`tsad plan`, `bench` and `config`), with --config/--set;
     `sensing`: the default --sensor and --segmentation."""
-    p.add_argument("--planner", required=True, choices=PLANNER_NAMES,
+    p.add_argument("--planner", required=True, choices=tuple(PLANNERS),
                    help="tsad (the paper's method), gp3, rots, rots-star (ROTS's sequence checked "
                         "step by step by the feasibility model, as in the paper), "
                         "rots-star-search (a stronger ROTS*: the model inside the A* search) "
@@ -86,7 +84,7 @@ def _add_planner_args(p: argparse.ArgumentParser, default_observer: str,
                         "PointNet++ prehensile network; default for tsad), geometric (gripper "
                         "swept volume against perceived point clouds; default for gp3 and the "
                         "rots planners) or oracle (true geometry; default for optimal)")
-    p.add_argument("--observer", default=default_observer, choices=OBSERVERS,
+    p.add_argument("--observer", default=default_observer, choices=OBSERVER_NAMES,
                    help="how the robot observes: drake renders depth in the Drake station (VTK), "
                         "raycast renders the same camera with the NumPy ray caster "
                         f"(default {default_observer})")
@@ -366,7 +364,8 @@ def bench_specs(args: argparse.Namespace) -> tuple[list, Path]:
                          observer=args.observer, occluded=args.occluded,
                          closed_loop=not args.open_loop,
                          motion=args.motion or args.world == "physics", world=args.world,
-                         config=config, scenes=scenes)
+                         config=config, scenes=scenes,
+                         plugins=tuple(plugin_reference(p) for p in getattr(args, "plugin", [])))
              for i, scenario in enumerate(scenarios)]
     return specs, out
 

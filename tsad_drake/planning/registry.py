@@ -45,6 +45,15 @@ class PlannerSpec:
     ablations: bool = False
     #: named variants: name -> config overrides ("full" is the default config)
     variants: dict[str, dict[str, Any]] = dc.field(default_factory=lambda: {"full": {}})
+    #: config -> the closed loop's limits it sets (`EpisodeLimits` fields: look_again,
+    #: reobserve, reobserve_unsolvable); none by default
+    loop_limits: Callable[[Any], dict[str, int]] = lambda config: {}
+
+
+def tsad_loop_limits(config: TSADConfig) -> dict[str, int]:
+    """The closed-loop limits TSAD's config sets (its extras; zero in the paper variant)."""
+    return {"look_again": config.look_again, "reobserve": config.reobserve,
+            "reobserve_unsolvable": config.reobserve_unsolvable}
 
 
 #: TSAD ablations of the paper's Table II: name -> config overrides
@@ -60,7 +69,8 @@ def register(spec: PlannerSpec) -> None:
 
 
 register(PlannerSpec("tsad", plan_tsad, TSADConfig, sub_searches=True, exclusions=True,
-                     reuse=True, ablations=True, checks_solvability=True, variants=VARIANTS))
+                     reuse=True, ablations=True, checks_solvability=True, variants=VARIANTS,
+                     loop_limits=tsad_loop_limits))
 register(PlannerSpec("gp3", plan_gp3, GP3Config))
 register(PlannerSpec("rots", plan_rots, ROTSConfig))
 register(PlannerSpec("rots-star", plan_rots_star, lambda: ROTSConfig(check_feasibility=True)))
