@@ -158,7 +158,7 @@ bench-frames: setup
 footprints: setup
 	mkdir -p results/perception
 	for c in "ideal label" "realistic cluster" "realistic label"; do set -- $$c; \
-	  $(PY) -m tsad_drake.bench.studies.hull_errors --sensor $$1 --segmentation $$2 --seeds 10 \
+	  $(PY) -m studies.hull_errors --sensor $$1 --segmentation $$2 --seeds 10 \
 	    --json results/perception/footprints-$$1-$$2.json || exit 1; done
 
 # Extras: TSAD on the prehensile network and on the oracle model (scenarios 1-3, 30 episodes
@@ -258,10 +258,10 @@ report: setup
 # 0.50-0.80 m) for TSAD (geometric, network), the baselines and optimal: table and plot in
 # results/cost_curves (docs/benchmark.md quotes them). Resumes where it stopped.
 cost-curves: setup
-	$(PY) -m tsad_drake.bench.studies.cost_curves --out results/cost_curves
+	$(PY) -m studies.cost_curves --out results/cost_curves
 
 lint: setup
-	$(VENV)/bin/ruff check tsad_drake tests
+	$(VENV)/bin/ruff check tsad_drake tests examples tools studies
 
 clean:
 	rm -rf out .pytest_cache

@@ -156,7 +156,7 @@ def test_set_objects_moves_an_object_in_the_image(station, scenario):
 
 def test_every_observation_pose_renders_its_own_view(station):
     """Each approach angle gives a depth image with the shelf in it, seen from its own camera pose
-    (frame rates are measured by `python -m tsad_drake.bench.studies.station_timing`, not asserted)."""
+    (frame rates are measured by `python -m studies.station_timing`, not asserted)."""
     views = {theta: station.render(theta) for theta in station.observation_q}
     for depth, _, _ in views.values():
         assert np.isfinite(depth).mean() > 0.5 and np.nanmin(depth[np.isfinite(depth)]) > 0.0

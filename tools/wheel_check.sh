@@ -26,6 +26,12 @@ from tsad_drake.station_models import PACKAGE_XML
 repo = Path(sys.argv[1])
 for path in (Path(tsad_drake.__file__), PACKAGE_XML):
     assert repo not in path.resolve().parents, f"{path} comes from the repository, not the wheel"
+# the study scripts stay in the repository (studies/); the report's pages of them are in the wheel
+import importlib.util
+
+assert importlib.util.find_spec("tsad_drake.bench.study_pages") is not None
+assert not (Path(tsad_drake.__file__).parent / "bench" / "studies").exists(), "studies in the wheel"
+assert (PACKAGE_XML.parent / "README.md").is_file(), "models/README.md missing from the wheel"
 print(f"wheel-check: tsad_drake from {Path(tsad_drake.__file__).parent}, models {PACKAGE_XML.parent}")
 PY
 "$tmp/venv/bin/tsad" render --scenario 1 --seed 0 --out "$tmp/render" > "$tmp/render.log"

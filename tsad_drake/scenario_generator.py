@@ -25,7 +25,7 @@ on the true shapes for a plan within a node budget, so the check is deterministi
 scenes were set up by hand and were solvable; without the last check about a quarter of scenario
 2's draws (three long rectangles, scarce free space) left no room for the blockers. The check keeps
 the few scenes that are solvable but need more search than the budget out too (scenario 1 seeds 6
-and 8 of the earlier generator, which TSAD solved). `python -m tsad_drake.bench.studies.difficulty`
+and 8 of the earlier generator, which TSAD solved). `python -m studies.difficulty`
 measures the result.
 
 The occluded variant puts a short target deep in the shelf and a front row of tall pickable
@@ -119,7 +119,7 @@ class GeneratorConfig:
 #: default 2-4 its scenes needed more actions than the paper's: `optimal` 4.23 on the bench seeds,
 #: while the paper's TSAD took 3.72 (so the paper's scenes need at most that on average), and GP3
 #: succeeded less often (0.17 with the oracle, paper 0.33). With 2-3, seeds 0-59: `optimal` 3.63,
-#: GP3 0.25 (`python -m tsad_drake.bench.studies.difficulty`). Scenarios 2 and 3 already match the paper
+#: GP3 0.25 (`python -m studies.difficulty`). Scenarios 2 and 3 already match the paper
 #: on both (optimal 3.90 / 3.97 <= its TSAD's 3.96 / 4.71; GP3 0.20 / 0.30 vs 0.17 / 0.20).
 SCENARIO1_BLOCKERS = (2, 3)
 

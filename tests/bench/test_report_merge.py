@@ -108,7 +108,7 @@ def test_each_row_is_set_against_its_table_in_the_paper_with_its_interval():
 
 
 def test_an_agreement_study_becomes_a_section_with_its_confusion_matrices(tmp_path, capsys):
-    from tsad_drake.bench.studies.physics_agreement import summarise
+    from studies.physics_agreement import summarise
 
     def action(rule_moved, physics_moved, physics_fallen=()):
         return {"object": "a", "diverged": False,
@@ -136,7 +136,7 @@ def test_an_agreement_study_becomes_a_section_with_its_confusion_matrices(tmp_pa
     assert "| rule yes | 2 | 1 |" in page and "| rule yes | 0 | 1 |" not in page
     assert "| rule no | 1 | 2 |" in page  # falls: physics saw one the rule did not
     assert "3 actions of TSAD (geometric model)" in page  # studies before --planner were TSAD's
-    from tsad_drake.bench.studies.physics_agreement import agreement_markdown
+    from tsad_drake.bench.study_pages import agreement_markdown
     study["settings"]["planner"] = "rots"
     assert agreement_markdown(study)[0].startswith("3 actions of ROTS (geometric model)")
     result = invoke(capsys, ["report", tmp_path / "agreement.json", "--out", tmp_path / "p2.md"])

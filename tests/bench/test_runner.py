@@ -143,7 +143,7 @@ def test_a_missed_network_target_names_the_failed_seeds(tmp_path):
 
 @pytest.mark.slow  # a timing study's printout (37 s)
 def test_net_timing_prints_a_row_per_batch_and_thread_count(capsys):
-    from tsad_drake.bench.studies.net_timing import main
+    from studies.net_timing import main
 
     assert main(["--batches", "1,3", "--threads", "1"]) == 0
     lines = capsys.readouterr().out.splitlines()

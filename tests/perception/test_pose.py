@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from tsad_drake.bench.studies.perception_timing import pose_errors
+from studies.perception_timing import pose_errors
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.perception.pose import (
     PoseConfig,

@@ -6,7 +6,7 @@ import dataclasses as dc
 import numpy as np
 import pytest
 
-from tsad_drake.bench.studies.hull_errors import DIRECTIONS, support
+from studies.hull_errors import DIRECTIONS, support
 from tsad_drake.perception.observe import observe_raycast, perception_config
 from tsad_drake.perception.segmentation import point_iou_matching, segment
 from tsad_drake.perception.sensor import sensor_config

@@ -5,8 +5,8 @@ import dataclasses as dc
 
 import pytest
 
+from studies.physics_agreement import classify
 from tsad_drake.bench.metrics import paper_table, physics_figures, summarise
-from tsad_drake.bench.studies.physics_agreement import classify
 from tsad_drake.execution.episode import physics_record
 from tsad_drake.execution.world import ActionOutcome
 from tsad_drake.pipeline import EpisodeSettings, physics_settings

@@ -99,11 +99,10 @@ def _read_json(path: str | Path, what: str):
 
 def load_report_input(path: str | Path) -> tuple[str, dict]:
     """("bench", document) for a `tsad bench` result, ("agreement", document) for the physics
-    agreement study's output (`bench/studies/physics_agreement.py`), ("footprints", document) for
-    the footprint error study's (`bench/studies/hull_errors.py --json`); InputFileError
+    agreement study's output (`studies/physics_agreement.py`), ("footprints", document) for
+    the footprint error study's (`studies/hull_errors.py --json`); InputFileError
     otherwise."""
-    from tsad_drake.bench.studies.hull_errors import is_footprint_document
-    from tsad_drake.bench.studies.physics_agreement import is_agreement_document
+    from tsad_drake.bench.study_pages import is_agreement_document, is_footprint_document
 
     document = _read_json(path, "report input")
     if is_agreement_document(document):
@@ -487,13 +486,13 @@ def write_report(documents: list[dict], out: Path, agreements: list[dict] = (),
         lines += _target_lines(scenario, columns) + _difficulty_lines(columns) + [""]
         digest[scenario] = {k: d["summary"] for k, d in columns.items()}
     if agreements:
-        from tsad_drake.bench.studies.physics_agreement import agreement_markdown
+        from tsad_drake.bench.study_pages import agreement_markdown
 
         lines += ["## Physics against the 2-D rule", ""]
         for document in agreements:
             lines += agreement_markdown(document)
     if footprints:
-        from tsad_drake.bench.studies.hull_errors import footprint_markdown
+        from tsad_drake.bench.study_pages import footprint_markdown
 
         lines += ["## Perceived footprints against the truth", "", *footprint_markdown(footprints)]
     page, digest_path, plot = report_outputs(out)

@@ -162,9 +162,9 @@ def add_plan_parsers(sub, add_scenario_args) -> None:
                                    "settings (a run split by seed ranges across machines) are "
                                    "merged by seed; the same seed with different results in two "
                                    "files is refused. A physics agreement study "
-                                   "(bench/studies/physics_agreement.py) among the inputs becomes "
+                                   "(studies/physics_agreement.py) among the inputs becomes "
                                    "a section with its confusion matrices, footprint error studies "
-                                   "(bench/studies/hull_errors.py --json) a table.")
+                                   "(studies/hull_errors.py --json) a table.")
     p.add_argument("inputs", nargs="+", help="bench result JSON files")
     p.add_argument("--out", required=True, help="markdown file to write (plot and JSON beside it)")
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from tsad_drake.bench.studies.hull_errors import hull_errors, summary, support
+from studies.hull_errors import hull_errors, summary, support
 from tsad_drake.scenes import generate_scenario
 
 
@@ -34,8 +34,8 @@ def test_the_study_document_becomes_a_table_of_the_results_page(tmp_path, capsys
 
     from cli_harness import invoke
 
+    from studies.hull_errors import main
     from tsad_drake.bench.metrics import summarise
-    from tsad_drake.bench.studies.hull_errors import main
 
     study = tmp_path / "footprints.json"
     main(["--scenarios", "2", "--seeds", "1", "--sensor", "realistic", "--segmentation",

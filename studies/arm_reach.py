@@ -1,4 +1,4 @@
-"""Can the arm carry out the grasps the planners allow? `python -m tsad_drake.bench.studies.arm_reach`.
+"""Can the arm carry out the grasps the planners allow? `python -m studies.arm_reach`.
 
 For each seed of a built-in scenario and each object alone in its scene (so only the shelf can be
 in the way), every approach angle the planners call pickable (the oracle's corridor rule) is

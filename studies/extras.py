@@ -1,6 +1,6 @@
 """What each of TSAD's extras buys: `full` without one extra, or `paper` with one (`--add`).
 
-    python -m tsad_drake.bench.studies.extras --scenarios 1,2,3 --episodes 10 --workers 2 \
+    python -m studies.extras --scenarios 1,2,3 --episodes 10 --workers 2 \
         --json results/extras.json
 
 Runs closed-loop episodes (ray-cast observations, label segmentation, geometric model) of TSAD

@@ -1,4 +1,4 @@
-"""Perception timing and accuracy: `python -m tsad_drake.bench.studies.perception_timing`.
+"""Perception timing and accuracy: `python -m studies.perception_timing`.
 
 Times one full observation (depth at every approach angle, fusion, segmentation, pose fits) with
 the NumPy ray caster and, when `tsad_drake.station` is importable, with the Drake station; then

@@ -1,4 +1,4 @@
-"""Motion-planning time per pick-and-place: `python -m tsad_drake.bench.studies.motion_timing`.
+"""Motion-planning time per pick-and-place: `python -m studies.motion_timing`.
 
 For each seed of a built-in scenario: run a TSAD episode (ray-cast observation, geometric
 feasibility), take its executed actions (true objects) and verify them with `verify_plan`; print

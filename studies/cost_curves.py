@@ -1,4 +1,4 @@
-"""Cost curves: `python -m tsad_drake.bench.studies.cost_curves` (`make cost-curves`).
+"""Cost curves: `python -m studies.cost_curves` (`make cost-curves`).
 
 Planning time and counted search work per episode against the number of objects (3-15, on a
 0.65 m shelf with 4 x 8 cells: the paper's 0.50 m shelf holds no more than about 12 of scenario

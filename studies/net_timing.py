@@ -1,4 +1,4 @@
-"""Prehensile network timing: `python -m tsad_drake.bench.studies.net_timing`.
+"""Prehensile network timing: `python -m studies.net_timing`.
 
 Times a forward pass of the shipped network per query at several batch sizes and thread counts
 (inputs encoded from a generated scene, so the sampling and grouping see real point layouts),
@@ -12,7 +12,7 @@ import argparse
 import numpy as np
 import torch
 
-from tsad_drake.bench.studies.perception_timing import best_time
+from studies.perception_timing import best_time
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.prehensile import encoding

@@ -6,7 +6,7 @@ number of actions (relocations plus the retrieval) where `optimal` finished with
 GP3's success in the world model (closed loop through `run_episode`). The paper's GP3 succeeds in
 only 17-33% of scenes and TSAD needs ~3.7-4.7 actions.
 
-    python -m tsad_drake.bench.studies.difficulty --episodes 30
+    python -m studies.difficulty --episodes 30
 """
 
 from __future__ import annotations
@@ -101,7 +101,7 @@ def table(summaries: dict[str, dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m tsad_drake.bench.studies.difficulty",
+        prog="python -m studies.difficulty",
         description="Measure generated-scene difficulty: mean |R_theta*|, optimal actions, "
                     "GP3 success (oracle feasibility, world model).")
     parser.add_argument("--episodes", type=int, default=30, help="scenes per scenario")

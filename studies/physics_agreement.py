@@ -22,7 +22,7 @@ Every disagreement is classified:
 After the first disagreement on falls or moves the two worlds hold different scenes; later
 actions are still compared and flagged `diverged`.
 
-    python -m tsad_drake.bench.studies.physics_agreement --scenarios 1 2 3 --seeds 0 1 2 \
+    python -m studies.physics_agreement --scenarios 1 2 3 --seeds 0 1 2 \
         --out results/physics_agreement.json
 """
 
@@ -36,12 +36,13 @@ import sys
 import time
 from pathlib import Path
 
+from tsad_drake.bench.study_pages import PLANNER_NAMES, confusion
 from tsad_drake.execution.world import ActionOutcome, GeometricWorld
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import Scenario
 
 #: planners whose actions the study compares, and their names in the text
-PLANNER_NAMES = {"tsad": "TSAD", "rots": "ROTS", "rots-star": "ROTS*", "gp3": "GP3"}
+
 
 # the episode machinery (pipeline, scene generator) is imported where episodes run: `tsad report`
 # reads study files through this module and needs only its summaries
@@ -135,53 +136,6 @@ def summarise(episodes: list[dict]) -> dict:
         "sim_seconds_per_action": sim / len(simulated) if simulated else None,
         "real_time_factor": sim / wall if wall else None,
     }
-
-
-def confusion(actions: list[dict]) -> dict:
-    """Per action, the rule's verdict against physics' as 2 x 2 counts: `moved` (the object stands
-    at its place point) and `fall` (any object fell), keyed "rule yes / physics no" etc."""
-    def matrix(verdict) -> dict[str, int]:
-        counts = {f"rule {a} / physics {b}": 0 for a in ("yes", "no") for b in ("yes", "no")}
-        for action in actions:
-            rule, physics = verdict(action["rule"]), verdict(action["physics"])
-            counts[f"rule {'yes' if rule else 'no'} / physics {'yes' if physics else 'no'}"] += 1
-        return counts
-
-    return {"moved": matrix(lambda v: bool(v["moved"])), "fall": matrix(lambda v: bool(v["fallen"]))}
-
-
-def agreement_markdown(document: dict) -> list[str]:
-    """The study as markdown lines: settings, the two confusion matrices, the disagreement
-    classes and the simulation's speed."""
-    s, settings = document["summary"], document["settings"]
-    planner = PLANNER_NAMES.get(settings.get("planner", "tsad"), settings.get("planner"))
-    model = settings.get("feasibility", "geometric")
-    lines = [f"{s['actions']} actions of {planner} ({model} model) "
-             f"in {s['episodes']} episodes (scenarios {', '.join(map(str, settings['scenarios']))}"
-             f", seeds {', '.join(map(str, settings['seeds']))}; physics aimed at the "
-             f"{settings.get('aim', 'true')} poses), executed by the 2-D rule and by physics:", ""]
-    table = confusion([a for e in document["episodes"] for a in e["actions"]])
-    for name, counts in table.items():
-        lines += [f"| {name}: rule \\ physics | yes | no |", "|---|---|---|"]
-        for rule in ("yes", "no"):
-            lines.append(f"| rule {rule} | {counts[f'rule {rule} / physics yes']} | "
-                         f"{counts[f'rule {rule} / physics no']} |")
-        lines.append("")
-    classes = ", ".join(f"{k}: {v}" for k, v in sorted(s["disagreement_classes"].items()))
-    lines.append(f"Disagreements by cause: {classes or 'none'} (causes: "
-                 "`tsad_drake/bench/studies/physics_agreement.py`). Agreement on move and fall "
-                 f"{s['agree_moved_fell']:.2f} of actions ({s['agree_moved_fell_before_divergence']:.2f}"
-                 " before the worlds diverge).")
-    if s.get("real_time_factor"):
-        lines.append(f"Simulated {s['sim_seconds_per_action']:.1f} s per action at a real-time "
-                     f"factor of {s['real_time_factor']:.2f}.")
-    return lines + [""]
-
-
-def is_agreement_document(document) -> bool:
-    """Whether `document` is this study's output (settings, summary, episodes)."""
-    return (isinstance(document, dict) and {"settings", "summary", "episodes"} <= set(document)
-            and isinstance(document["episodes"], list))
 
 
 def main(argv: list[str] | None = None) -> int:

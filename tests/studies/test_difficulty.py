@@ -5,8 +5,8 @@ solvable by removals, the occluded variant is fast and hidden, and the calibrati
 import numpy as np
 import pytest
 
-from tsad_drake.bench.studies.difficulty import main as difficulty_main
-from tsad_drake.bench.studies.difficulty import summarise, table
+from studies.difficulty import main as difficulty_main
+from studies.difficulty import summarise, table
 from tsad_drake.geometry2d import convex_polygon_distance
 from tsad_drake.scenario import ObjectConfig, Scenario
 from tsad_drake.scenario_generator import free_cells, removal_solvable, scenario_defaults, target_blockers
@@ -51,7 +51,7 @@ def test_removal_solvable_detects_a_target_behind_an_unpickable_box():
 
 
 def test_occluded_variant_is_hidden():
-    """Its generation time is a benchmark figure (`python -m tsad_drake.bench.studies.difficulty`),
+    """Its generation time is a benchmark figure (`python -m studies.difficulty`),
     not an assertion: a timed assertion failed on this 2-core machine for the old code as well."""
     scenario = generate_scenario("1", 3, occluded=True)
     assert scenario.occluded

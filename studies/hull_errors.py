@@ -1,4 +1,4 @@
-"""Perceived footprints against true ones: `python -m tsad_drake.bench.studies.hull_errors`.
+"""Perceived footprints against true ones: `python -m studies.hull_errors`.
 
 The geometric model (and the network's placement test) plan with `pointcloud_sim.perceived_hull`:
 the hull of an object's seen points completed by reflection through its estimated centre. This
@@ -16,6 +16,7 @@ import json
 
 import numpy as np
 
+from tsad_drake.bench.study_pages import STUDY
 from tsad_drake.cli.common import MAX_FRAMES, frame_count
 from tsad_drake.outputs import atomic_write_text
 from tsad_drake.perception.observe import PerceptionConfig, observe_raycast, perception_config
@@ -92,37 +93,6 @@ def summary(rows: list[HullError]) -> dict[str, dict[str, float]]:
             entry[f"{side}_median_mm"] = 1000 * float(np.median([r.sides[side] for r in sel]))
         out[kind] = entry
     return out
-
-
-#: the `study` field of this study's JSON document
-STUDY = "footprint_errors"
-
-
-def is_footprint_document(document) -> bool:
-    """Whether `document` is this study's `--json` output."""
-    return isinstance(document, dict) and document.get("study") == STUDY
-
-
-def footprint_markdown(documents: list[dict]) -> list[str]:
-    """One table row per document (all objects): shortfall and excess, median / p90 / worst."""
-    lines = ["Perceived footprints (what the planners use: fitted outlines padded by their "
-             "uncertainty, or completed point hulls) against the true ones, ray-cast views; "
-             "shortfall: how far the truth reaches past the perceived footprint (what a gap or "
-             "margin must absorb), excess: how far the perceived footprint reaches past the truth "
-             "(space wrongly taken); mm, median / p90 / worst "
-             "(`python -m tsad_drake.bench.studies.hull_errors --json FILE`):", "",
-             "| sensing | scenarios x seeds | objects | shortfall | excess |", "|---|---|---|---|---|"]
-    for doc in documents:
-        st, e = doc["settings"], doc["summary"]["all"]
-        noise = "" if st.get("noise_mm") is None else f" at {st['noise_mm']} mm"
-        noise += f" x {st['frames']} frames" if st.get("frames", 1) > 1 else ""
-        lines.append(
-            f"| {st['sensor']}{noise}, {st['segmentation']}{', plain' if st.get('plain') else ''}"
-            f" | {','.join(st['scenarios'])} x {st['seeds'][0]}-{st['seeds'][1]} | {e['objects']}"
-            f" | {e['shortfall_median_mm']:.1f} / {e['shortfall_p90_mm']:.1f} / "
-            f"{e['shortfall_max_mm']:.1f} | {e['excess_median_mm']:.1f} / {e['excess_p90_mm']:.1f}"
-            f" / {e['excess_max_mm']:.1f} |")
-    return lines + [""]
 
 
 def main(argv: list[str] | None = None) -> None:

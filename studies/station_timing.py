@@ -1,6 +1,6 @@
 """Station timing: build time, 128x128 depth frames per second, and one sweep over all views.
 
-Run with `python -m tsad_drake.bench.studies.station_timing [--scenario 1] [--seed 0] [--frames 200]`.
+Run with `python -m studies.station_timing [--scenario 1] [--seed 0] [--frames 200]`.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Quick evaluation of a planner on generated scenes (closed loop, ray-cast observations).
 
-    python -m tsad_drake.bench.studies.quick_eval --planner tsad --feasibility geometric --episodes 10
-    python -m tsad_drake.bench.studies.quick_eval --sensor realistic --segmentation cluster
-    python -m tsad_drake.bench.studies.quick_eval --sensor realistic --noise-mm 2
+    python -m studies.quick_eval --planner tsad --feasibility geometric --episodes 10
+    python -m studies.quick_eval --sensor realistic --segmentation cluster
+    python -m studies.quick_eval --sensor realistic --noise-mm 2
 
 Episodes run as `pipeline.run_settings` runs them (the bench's 12-action limit). Prints, per
 scenario, success rate, mean actions and falls (successful / all episodes) and the median planning

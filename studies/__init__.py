@@ -1,0 +1,1 @@
+"""Studies and timing scripts behind figures in docs/ (`python -m studies.NAME`)."""
