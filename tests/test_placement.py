@@ -12,13 +12,7 @@ from cli_harness import assert_clean, invoke
 
 from tsad_drake.motion.keyframes import keyframe_targets, pose_errors
 from tsad_drake.motion.scene import MotionConfig, MotionModel
-from tsad_drake.placement import (
-    PROBE_HEIGHT,
-    PROBE_RADIUS,
-    PlacementError,
-    grasps,
-    place_station,
-)
+from tsad_drake.placement import PlacementError, grasps, place_station, probe_at
 from tsad_drake.plan_format import plan_json
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import (
@@ -49,9 +43,8 @@ def assert_reaches_every_cell(scenario: Scenario, placement) -> None:
     assert len(expected) == placement.report.checked > 100
     assert not placement.report.unreachable and not placement.report.views
     for grasp in expected:
-        probe = ObjectConfig(name="probe", shape="cylinder", size=[PROBE_RADIUS, PROBE_HEIGHT],
-                             x=grasp.x, y=grasp.y)
-        targets = keyframe_targets(probe, grasp.theta, grasp.x, grasp.y, grasp.theta, config)
+        targets = keyframe_targets(probe_at(grasp.x, grasp.y), grasp.theta, grasp.x, grasp.y,
+                                   grasp.theta, config)
         for name in ("pre_grasp", "grasp"):
             q = placement.report.solutions[(grasp, name)]
             position, angle = pose_errors(model, q, X_WS @ targets[name])

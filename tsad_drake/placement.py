@@ -66,7 +66,6 @@ class ReachReport:
     solutions: dict[tuple[Grasp, str], np.ndarray] = dc.field(default_factory=dict)
     #: why the observation viewpoints or the ready pose cannot be reached ("": they can)
     views: str = ""
-    complete: bool = True  #: False: stopped at the first unreachable grasp
 
     @property
     def reaches_all(self) -> bool:
@@ -103,30 +102,35 @@ def _names(grasps: list[Grasp], limit: int = 6) -> str:
     return shown + (f" and {len(cells) - limit} more cells" if len(cells) > limit else "")
 
 
+def probe_at(x: float, y: float) -> ObjectConfig:
+    """The probe cylinder whose grasps stand for a cell's (at the cell centre x, y in S)."""
+    return ObjectConfig(name="probe", shape="cylinder", size=[PROBE_RADIUS, PROBE_HEIGHT],
+                        x=float(x), y=float(y))
+
+
 def grasps(scenario: Scenario) -> list[Grasp]:
     """Every (cell, angle) grasp of `scenario`'s grid that the corridor rule allows for a probe
     alone at the cell centre, farthest from the robot's base first (those fail first)."""
     from tsad_drake.planning.feasibility import OracleFeasibility
-    from tsad_drake.planning.state import grid_cell_centres, true_state
+    from tsad_drake.planning.state import make_workspace, true_state
 
-    shelf, grid = scenario.shelf, scenario.grid
-    cells = grid_cell_centres(shelf.depth, shelf.width, grid.cells_x, grid.cells_y, grid.margin)
+    workspace = make_workspace(scenario)  # pickable answers per its (sorted) approach angles
     found = []
-    for index, (x, y) in enumerate(cells):
-        probe = ObjectConfig(name="probe", shape="cylinder", size=[PROBE_RADIUS, PROBE_HEIGHT],
-                             x=float(x), y=float(y))
+    for index, (x, y) in enumerate(workspace.cell_centres):
+        probe = probe_at(x, y)
         alone = dc.replace(scenario, objects=[probe], target="probe", occluded=False)
         allowed = OracleFeasibility(alone).pickable(true_state(alone), 0)
-        row, column = divmod(index, grid.cells_y)
+        row, column = divmod(index, scenario.grid.cells_y)
         found += [Grasp(row, column, float(theta), float(x), float(y))
-                  for theta, ok in zip(alone.approach_angles, allowed, strict=True) if ok]
+                  for theta, ok in zip(workspace.approach_angles, allowed, strict=True) if ok]
     return sorted(found, key=lambda g: -np.hypot(g.x, g.y))
 
 
 def reach_report(scenario: Scenario, station: StationConfig, motion, distance: float,
-                 stop_at_first: bool = False) -> ReachReport:
-    """What the arm reaches with the shelf at `distance` (m): every grasp of `grasps`, and the
-    observation viewpoints (`stop_at_first`: stop at the first grasp out of reach)."""
+                 stop_at_first: bool = False, checked: list[Grasp] | None = None) -> ReachReport:
+    """What the arm reaches with the shelf at `distance` (m): every grasp of `checked` (default
+    `grasps(scenario)`), the observation viewpoints and the ready pose (`stop_at_first`: stop at
+    the first grasp out of reach)."""
     from tsad_drake.motion.keyframes import KeyframeError, keyframe_targets
     from tsad_drake.motion.scene import MotionModel
     from tsad_drake.motion.verify import ready_q
@@ -138,11 +142,10 @@ def reach_report(scenario: Scenario, station: StationConfig, motion, distance: f
     report = ReachReport(shelf_distance=float(distance))
     home = np.asarray(motion.home_q, dtype=float)
     last: dict[float, np.ndarray] = {}  # theta -> the last pre-grasp reached (the next seed)
-    for grasp in grasps(scenario):
+    for grasp in grasps(scenario) if checked is None else checked:
         report.checked += 1
-        probe = ObjectConfig(name="probe", shape="cylinder", size=[PROBE_RADIUS, PROBE_HEIGHT],
-                             x=grasp.x, y=grasp.y)
-        targets = keyframe_targets(probe, grasp.theta, grasp.x, grasp.y, grasp.theta, motion)
+        targets = keyframe_targets(probe_at(grasp.x, grasp.y), grasp.theta, grasp.x, grasp.y,
+                                   grasp.theta, motion)
         # seeded from the last pre-grasp reached at this angle, then (IK is local) from home
         starts = [last[grasp.theta], home] if grasp.theta in last else [home]
         for start in starts:
@@ -159,7 +162,6 @@ def reach_report(scenario: Scenario, station: StationConfig, motion, distance: f
             if not free:
                 report.contact.append(grasp)
         if stop_at_first and report.unreachable:
-            report.complete = False
             return report
     try:
         solve_observation_poses(scenario, placed.camera, RigidTransform(), X_WS,
@@ -214,7 +216,8 @@ def place_station(scenario: Scenario, station: StationConfig | None = None, moti
     if key in _CACHE:
         return _CACHE[key]
     start = time.perf_counter()
-    configured = reach_report(scenario, station, motion, station.shelf_distance)
+    checked = grasps(scenario)  # the same at every distance
+    configured = reach_report(scenario, station, motion, station.shelf_distance, checked=checked)
     if configured.reaches_all:
         found = configured
     else:
@@ -222,9 +225,11 @@ def place_station(scenario: Scenario, station: StationConfig | None = None, moti
         for distance in CANDIDATE_DISTANCES:
             if abs(distance - station.shelf_distance) < 1e-9:
                 continue
-            candidate = reach_report(scenario, station, motion, distance, stop_at_first=True)
+            # stops only at a grasp out of reach: one that reaches all is a whole report
+            candidate = reach_report(scenario, station, motion, distance, stop_at_first=True,
+                                     checked=checked)
             if candidate.reaches_all:
-                found = reach_report(scenario, station, motion, distance)
+                found = candidate
                 break
         if found is None:
             raise PlacementError(_refusal(scenario, configured))
