@@ -21,12 +21,14 @@ from pathlib import Path
 import numpy as np
 
 from tsad_drake.execution.episode import run_episode
+from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.pipeline import make_feasibility
-from tsad_drake.planning.gp3 import GP3Config, gp3_optimal_angle, plan_gp3
+from tsad_drake.planning.gp3 import GP3Config, gp3_optimal_angle
 from tsad_drake.planning.interface import angle_index
 from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
+from tsad_drake.planning.registry import get_planner
 from tsad_drake.planning.state import empty_cell_count, make_workspace, state_from_perception
 from tsad_drake.scenario import Scenario
 from tsad_drake.scenes import generate_scenario
@@ -49,8 +51,9 @@ def measure_scene(scenario: Scenario, optimal: OptimalConfig, gp3: GP3Config,
         k = angle_index(workspace.approach_angles, theta)
         size_r = len(feasibility.blockers(state, state.target_index)[k])
     best = plan_optimal(state, feasibility, workspace, optimal)
-    episode = run_episode(scenario, plan_gp3, feasibility_name, _observe, gp3, scenario.seed,
-                          closed_loop=True, planner_name="gp3")
+    episode = run_episode(GeometricWorld(scenario, _observe), get_planner("gp3"),
+                          lambda truth, ws: make_feasibility(feasibility_name, truth, ws), gp3,
+                          scenario.seed, feasibility_name=feasibility_name)
     return {
         "scenario": scenario.name, "seed": scenario.seed,
         "theta_star_deg": None if theta is None else float(np.degrees(theta)),

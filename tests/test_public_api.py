@@ -42,7 +42,7 @@ def test_an_episode_through_the_public_api_retrieves_the_target():
     from tsad_drake.planning.types import Action
 
     scenario = load_scene("1", 0)  # generate_scenario("1", 0), frozen
-    doc = td.plan_episode(scenario, 0, td.EpisodeSettings(planner="tsad", variant="paper"))
+    doc = td.plan_episode(scenario, 0, td.EpisodeSettings(planner="tsad", variant="paper")).to_json()
     assert doc["success"] and doc["variant"] == "paper" and doc["actions"]
     # the recorded actions, replayed in a fresh world model, free the target without a fall
     world = td.GeometricWorld(scenario)

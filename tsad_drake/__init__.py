@@ -12,8 +12,9 @@ The public API, importable from `tsad_drake` directly (each name is loaded on fi
     config        RunConfig (every setting, YAML), default_run_config(planner, ablation, variant,
                   sensor), merge_file(config, path), apply_sets(config, ["a.b=v"]),
                   dump_run_config(config); EpisodeSettings(config=...) runs with it
-    episodes      EpisodeSettings, plan_episode(scenario, seed, settings) -> plan.json document,
-                  run_episode(world, planner, model_factory, config, seed), World, GeometricWorld
+    episodes      EpisodeSettings, plan_episode(scenario, seed, settings) -> EpisodeRecord
+                  (.to_json(): the plan.json document), run_episode(world, planner,
+                  model_factory, config, seed) -> EpisodeRecord, World, GeometricWorld
     verification  verify_plan(scenario, actions, world="none"|"geometric"|"physics") ->
                   VerificationReport (.to_json(): `tsad verify`'s report.json); plans as files:
                   load_plan(path) -> PlanDocument, plan_json(scenario, actions) (tsad-plan/1)
@@ -21,7 +22,7 @@ The public API, importable from `tsad_drake` directly (each name is loaded on fi
                   tsad_drake.motion.verify.verify_plan(scenario, actions) -> [ActionMotion]
 
     >>> import tsad_drake as td
-    >>> doc = td.plan_episode(td.generate_scenario("1", 0), 0, td.EpisodeSettings())
+    >>> doc = td.plan_episode(td.generate_scenario("1", 0), 0, td.EpisodeSettings()).to_json()
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ _PUBLIC = {
     "apply_sets": "tsad_drake.run_config",
     "dump_run_config": "tsad_drake.run_config",
     "plan_episode": "tsad_drake.pipeline",
+    "EpisodeRecord": "tsad_drake.execution.record",
     "run_episode": "tsad_drake.execution.episode",
     "World": "tsad_drake.execution.world",
     "GeometricWorld": "tsad_drake.execution.world",

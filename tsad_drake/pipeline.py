@@ -11,6 +11,7 @@ import dataclasses as dc
 from typing import Any
 
 from tsad_drake.execution.episode import EpisodeLimits, run_episode
+from tsad_drake.execution.record import EpisodeInfo, EpisodeRecord, MotionVerdict
 from tsad_drake.execution.world import GeometricWorld, Observer, World
 from tsad_drake.perception.observe import PerceptionConfig, perception_config
 from tsad_drake.perception.sensor import SensorConfig
@@ -204,65 +205,48 @@ def episode_settings(scenario: Scenario, settings: EpisodeSettings) -> EpisodeSe
                       planner_overrides=(), sensor_overrides=())
 
 
-def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings,
-                 physics_replay=None) -> dict:
-    """Run one episode and return its JSON row (plan.json fields plus difficulty figures); on
-    the physics world, `physics_replay` (a path) gets a Meshcat recording of the simulation."""
+def episode_record(scenario: Scenario, seed: int, settings: EpisodeSettings,
+                   physics_replay=None) -> EpisodeRecord:
+    """Run one episode and return its record; on the physics world, `physics_replay` (a path)
+    gets a Meshcat recording of the simulation."""
     settings = episode_settings(scenario, settings)
     config = settings.run_config()
     world = make_world(settings, scenario, seed)
     action_check = None
     if settings.motion:
-        from tsad_drake.motion.verify import is_pick_failure, motion_check
+        from tsad_drake.motion.verify import motion_check
 
-        def action_check(truth: Scenario, action) -> tuple[bool, str]:
-            ok, why = motion_check(truth, action, config.motion,
-                                   config.station.X_WS(truth.shelf.floor_height))
-            return ok, ("" if ok else ("pick: " if is_pick_failure(why) else "place: ") + why)
+        def action_check(truth: Scenario, action) -> MotionVerdict:
+            return MotionVerdict(*motion_check(truth, action, config.motion,
+                                               config.station.X_WS(truth.shelf.floor_height)))
 
     def model(truth: Scenario, workspace: Workspace) -> FeasibilityModel:
         return make_feasibility(settings.feasibility, truth, workspace, settings.sensor)
 
     planner = get_planner(settings.planner)
-    result = run_episode(world, planner, model, config.planner, seed,
+    info = EpisodeInfo(settings.ablation, settings.variant, settings.observer, settings.world,
+                       settings.sensor, config_digest(config),
+                       initial_rearrangement_set_size(scenario))
+    record = run_episode(world, planner, model, config.planner, seed,
                          closed_loop=settings.closed_loop,
                          limits=EpisodeLimits(max_actions=settings.max_actions,
                                               **planner.loop_limits(config.planner)),
-                         action_check=action_check, feasibility_name=settings.feasibility)
-    row = result.to_json()
-    if settings.motion:
-        checks = row["motion_checks"]
-        row["motion_feasible_share"] = (sum(c["verified"] for c in checks) / len(checks)
-                                        if checks else None)
-    #: s per counted unit of search work (the budget's unit: `search_iterations`)
-    row["planning_time_per_iteration_s"] = (row["planning_time_s"] / row["search_iterations"]
-                                            if row["search_iterations"] else None)
-    row["ablation"] = settings.ablation
-    row["variant"] = settings.variant
-    row["observer"] = settings.observer
-    row["world"] = settings.world
-    if settings.world == "physics":
-        from tsad_drake.bench.metrics import physics_figures
-        from tsad_drake.execution.episode import physics_record
-        from tsad_drake.physics.world import PhysicsWorld
+                         action_check=action_check, feasibility_name=settings.feasibility,
+                         info=info)
+    if physics_replay is not None and settings.world == "physics":
+        world.write_replay(physics_replay)  # a PhysicsWorld (`make_world`)
+    return record
 
-        row["physics"] = physics_figures(row["actions"])
-        if isinstance(world, PhysicsWorld) and world.retrieval is not None:
-            row["physics"]["retrieval"] = physics_record(world.retrieval)
-        if isinstance(world, PhysicsWorld) and physics_replay is not None:
-            world.write_replay(physics_replay)
-    row["sensor"] = settings.sensor
-    row["config_digest"] = config_digest(config)
-    row["initial_rearrangement_set_size"] = initial_rearrangement_set_size(scenario)
-    first_stats = row["rounds"][0]["stats"] if row["rounds"] else {}
-    if settings.planner == "optimal":
-        row["optimal_finished"] = bool(first_stats.get("optimal_finished", False))
-    return row
+
+def run_settings(scenario: Scenario, seed: int, settings: EpisodeSettings) -> dict:
+    """Run one episode and return its JSON row (`EpisodeRecord.to_json`: the plan.json fields
+    and the settings it ran with)."""
+    return episode_record(scenario, seed, settings).to_json()
 
 
 def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
-                 out_dir=None, meshcat=None) -> dict:
-    """`tsad plan`: one episode on a given scene, as the plan.json document.
+                 out_dir=None, meshcat=None) -> EpisodeRecord:
+    """`tsad plan`: one episode on a given scene, as the plan.json record (`to_json` writes it).
 
     With `settings.motion`, the executed actions are verified again as one continuous motion from
     the ready pose; `motion` holds the segments, and `out_dir` gets `replay.html` (an offline
@@ -272,32 +256,24 @@ def plan_episode(scenario: Scenario, seed: int, settings: EpisodeSettings,
     motion is `planned_replay.html` (what was planned).
     """
     physics = out_dir is not None and settings.world == "physics"
-    row = run_settings(scenario, seed, settings,
-                       physics_replay=out_dir / "replay.html" if physics else None)
+    record = episode_record(scenario, seed, settings,
+                            physics_replay=out_dir / "replay.html" if physics else None)
     settings = episode_settings(scenario, settings)
     config = settings.run_config()
     if settings.motion:
-        from tsad_drake.motion.export import (
-            SceneLayout,
-            actions_from_records,
-            motion_section,
-            write_scene_directives,
-        )
+        from tsad_drake.motion.export import SceneLayout, motion_section, write_scene_directives
         from tsad_drake.motion.replay import write_replay_html
         from tsad_drake.motion.verify import verify_plan
 
-        actions = actions_from_records(row["actions"])
+        actions = [a.true_action() for a in record.actions]
         X_WS = config.station.X_WS(scenario.shelf.floor_height)
         motions = verify_plan(scenario, actions, config.motion, X_WS)
-        row["motion"] = motion_section(scenario, motions, SceneLayout(scenario, X_WS))
+        record.motion = motion_section(scenario, motions, SceneLayout(scenario, X_WS))
         if out_dir is not None:
             planned = out_dir / ("planned_replay.html" if physics else "replay.html")
             write_replay_html(scenario, actions, motions, planned, meshcat, X_WS=X_WS)
             write_scene_directives(scenario, out_dir, X_WS)
-    row["scenario"] = scenario.name
-    row["theta_star_deg"] = (None if row.get("theta_star_deg") is None
-                             else round(float(row["theta_star_deg"]), 6))
-    row["settings"] = {f.name: getattr(settings, f.name) for f in dc.fields(settings)
-                       if f.name != "config"}
-    row["config"] = run_config_record(config)  #: every setting (`tsad config --dump` prints it)
-    return row
+    record.settings = dc.asdict(dc.replace(settings, config=None))
+    del record.settings["config"]  # written whole as `config`
+    record.config = run_config_record(config)  #: every setting (`tsad config --dump` prints it)
+    return record

@@ -237,9 +237,9 @@ def plan_json(scenario: Scenario | str, actions: list[Action], retrieve_target: 
 def plan_from_episode(scenario: Scenario, row: dict) -> dict:
     """The `tsad-plan/1` document of a `tsad plan` run (plan.json `row`): its executed actions on
     true objects, the target retrieval when the episode retrieved it, the scene inline."""
-    from tsad_drake.motion.export import actions_from_records
+    from tsad_drake.execution.record import ActionRecord
 
-    actions = actions_from_records(row["actions"])
+    actions = [ActionRecord.from_json(a).true_action() for a in row["actions"]]
     meta = {"source": "tsad plan", "planner": row.get("planner"),
             "feasibility": row.get("feasibility"), "seed": row.get("seed"),
             "world": row.get("world"), "theta_star_deg": row.get("theta_star_deg"),

@@ -24,10 +24,10 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from tsad_drake.execution.episode import physics_record
+from tsad_drake.execution.record import outcome_json
 from tsad_drake.execution.world import GeometricWorld, retrieval_angles
 from tsad_drake.motion.causes import failure_cause
-from tsad_drake.motion.verify import ActionMotion, is_pick_failure, ready_q, retrieval_motion
+from tsad_drake.motion.verify import ActionMotion, ready_q, retrieval_motion
 from tsad_drake.motion.verify import verify_plan as verify_motions
 from tsad_drake.placement import placed_config
 from tsad_drake.plan_format import action_json, check_actions
@@ -134,11 +134,6 @@ class VerificationReport:
                 "motion_planning_time_s": round(sum(self.planning_times), 4)}
 
 
-def _cause(failure: str) -> dict:
-    """`failure_cause` with the half of the action (pick or place) the failure lies in."""
-    return failure_cause(("pick: " if is_pick_failure(failure) else "place: ") + failure)
-
-
 def _verdicts(actions: list[Action], motions: list[ActionMotion], keep_going: bool
               ) -> list[ActionVerdict]:
     verdicts = []
@@ -149,7 +144,7 @@ def _verdicts(actions: list[Action], motions: list[ActionMotion], keep_going: bo
         m = motions[i]
         verdicts.append(ActionVerdict(i, action, "verified" if m.verified else "refused",
                                       skipped=keep_going and not m.verified, failure=m.failure,
-                                      cause=None if m.verified else _cause(m.failure),
+                                      cause=None if m.verified else failure_cause(m.failure),
                                       planning_time_s=m.planning_time_s,
                                       segments=[seg.name for seg in m.segments]))
     return verdicts
@@ -180,7 +175,7 @@ def _verify_retrieval(scenario: Scenario, motions: list[ActionMotion], theta: fl
         verdict.tried.append({"theta_deg": round(math.degrees(angle), 6),
                               "failure": motion.failure})
         if verdict.cause is None:
-            verdict.cause = _cause(motion.failure)
+            verdict.cause = failure_cause(motion.failure)
     verdict.failure = "; ".join(f"{r['theta_deg']:g} deg: {r['failure']}" for r in verdict.tried)
     return verdict, None
 
@@ -191,7 +186,7 @@ def _geometric(scenario: Scenario, verdicts: list[ActionVerdict],
     world = GeometricWorld(scenario)
     for v in verdicts:
         if v.status == "verified":
-            outcome = physics_record(world.execute(v.action))
+            outcome = outcome_json(world.execute(v.action))
             v.outcome = {k: outcome[k] for k in GEOMETRIC_FIELDS}
     if retrieval is not None and retrieval.status == "verified":
         retrieved = world.retrieve()
@@ -208,10 +203,10 @@ def _physics(scenario: Scenario, verdicts: list[ActionVerdict], motions: list[Ac
                          config.perception, config.sensor, 0)
     for v in verdicts:
         if v.status == "verified":
-            v.outcome = physics_record(world.execute_motion(v.action, motions[v.index]))
+            v.outcome = outcome_json(world.execute_motion(v.action, motions[v.index]))
     if retrieval is not None and retrieval.status == "verified":
         retrieved = world.retrieve()
-        record = physics_record(world.retrieval) if world.retrieval is not None else {}
+        record = outcome_json(world.retrieval) if world.retrieval is not None else {}
         retrieval.outcome = {**record, "retrieved": retrieved,
                              "reason": "" if retrieved else world.failure}
     return world

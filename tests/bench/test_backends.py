@@ -4,6 +4,7 @@ workers each), and records which backend ran."""
 import pytest
 
 from tsad_drake.bench.runner import EpisodeSpec, run_bench
+from tsad_drake.pipeline import EpisodeSettings
 
 ray = pytest.importorskip("ray", reason="the ray extra is not installed (make setup installs it)")
 
@@ -19,7 +20,7 @@ def untimed(value):
 
 def test_ray_and_process_backends_give_the_same_rows(tmp_path):
     # scenario 3 seeds 0-1 generate in about a second; gp3 on the oracle is a few seconds each
-    specs = [EpisodeSpec(scenario="3", seed=s, planner="gp3", feasibility="oracle") for s in (0, 1)]
+    specs = [EpisodeSpec("3", s, EpisodeSettings(planner="gp3", feasibility="oracle")) for s in (0, 1)]
     results = {backend: run_bench(specs, tmp_path / f"{backend}.json", workers=2, progress=False,
                                   backend=backend)
                for backend in ("process", "ray")}

@@ -11,6 +11,7 @@ from cli_harness import assert_clean, invoke
 from tsad_drake.bench import runner
 from tsad_drake.bench.runner import EpisodeSpec, rows_path_of, run_spec
 from tsad_drake.cli import main
+from tsad_drake.pipeline import EpisodeSettings
 from tsad_drake.scenario import save_scenario
 from tsad_drake.scenes import generate_scenario
 
@@ -62,8 +63,8 @@ def test_folder_bench_runs_one_row_per_scene_file(folder_bench):
     assert len(rows_path_of(out).read_text().splitlines()) == 3
     # each row ran its own file: the same plan as that file benched alone with the row's seed
     for row in rows:
-        alone = run_spec(EpisodeSpec(scenario=str(folder / row["scene_file"]), seed=row["seed"],
-                                     planner="optimal", feasibility="oracle"))
+        alone = run_spec(EpisodeSpec(str(folder / row["scene_file"]), row["seed"],
+                                     EpisodeSettings(planner="optimal", feasibility="oracle")))
         assert _outcome(row) == _outcome(alone), row["scene_file"]
     assert len({json.dumps(_outcome(r)) for r in rows}) == 3  # three different plans
 

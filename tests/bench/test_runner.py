@@ -7,11 +7,12 @@ import pytest
 from tsad_drake.bench.metrics import paper_table, summarise
 from tsad_drake.bench.report import write_report
 from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec, run_bench
+from tsad_drake.pipeline import EpisodeSettings
 
 
 def _specs(planner, seeds, feasibility="oracle"):
     # scenario 3: its seeds 0 and 1 generate in under a second (scenario 1 seed 0 takes ~13 s)
-    return [EpisodeSpec(scenario="3", seed=s, planner=planner, feasibility=feasibility)
+    return [EpisodeSpec("3", s, EpisodeSettings(planner=planner, feasibility=feasibility))
             for s in seeds]
 
 
@@ -167,7 +168,7 @@ def test_report_blames_tsad_when_optimal_is_under_the_papers_count(tmp_path):
 
 def _gp3_specs(seeds):
     # scenario 3: its seeds 0 and 1 generate in under a second (scenario 1 seed 0 takes ~13 s)
-    return [EpisodeSpec(scenario="3", seed=s, planner="gp3", feasibility="geometric")
+    return [EpisodeSpec("3", s, EpisodeSettings(planner="gp3", feasibility="geometric"))
             for s in seeds]
 
 
@@ -216,7 +217,7 @@ def test_rows_of_other_network_weights_are_run_again(tmp_path):
     from tsad_drake.prehensile.checkpoint import weights_digest
     from tsad_drake.scenario import scene_digest
 
-    specs = [EpisodeSpec(scenario="3", seed=s, planner="tsad", feasibility="net") for s in (0, 1)]
+    specs = [EpisodeSpec("3", s, EpisodeSettings(planner="tsad", feasibility="net")) for s in (0, 1)]
     rows_path = tmp_path / "net.json.rows.jsonl"
     rows = [{**dict(zip(SPEC_KEYS, spec.key())), "seed": spec.seed, "success": True,
              "num_actions": 2, "falls": 0, "planning_time_s": 0.5,
@@ -236,7 +237,7 @@ def test_bench_on_a_scenario_yaml_runs_the_same_scene_every_seed(tmp_path):
 
     path = tmp_path / "scene.yaml"
     save_scenario(generate_scenario("3", 1), path)
-    specs = [EpisodeSpec(scenario=str(path), seed=s, planner="gp3", feasibility="oracle")
+    specs = [EpisodeSpec(str(path), s, EpisodeSettings(planner="gp3", feasibility="oracle"))
              for s in (5, 6)]
     document = run_bench(specs, tmp_path / "bench.json", progress=False)
     assert [r["seed"] for r in document["rows"]] == [5, 6]
@@ -250,14 +251,14 @@ def test_a_row_from_before_configs_were_recorded_counts_as_the_default_config(tm
     from tsad_drake.scenario import scene_digest
 
     default = default_run_config("gp3")
-    spec = EpisodeSpec(scenario="3", seed=0, planner="gp3", feasibility="oracle", config=default)
-    old_row = {**{k: getattr(spec, k) for k in SPEC_KEYS if k != "config_digest"}, "seed": 0,
+    spec = EpisodeSpec("3", 0, EpisodeSettings(planner="gp3", feasibility="oracle", config=default))
+    old_row = {**{k: v for k, v in spec.identity().items() if k != "config_digest"}, "seed": 0,
                "success": True, "num_actions": 2, "falls": 0, "planning_time_s": 0.1,
                "marker": "old", "scene_digest": scene_digest(spec_scenario(spec))}
     for name, config, reused in (("default", default, True),
                                  ("changed", apply_sets(default, ["planner.iterations=50"]), False)):
         out = tmp_path / f"{name}.json"
         out.with_name(out.name + ".rows.jsonl").write_text(json.dumps(old_row) + "\n")
-        document = run_bench([EpisodeSpec("3", 0, "gp3", "oracle", config=config)], out,
+        document = run_bench([EpisodeSpec("3", 0, EpisodeSettings("gp3", "oracle", config=config))], out,
                              progress=False)
         assert (document["rows"][0].get("marker") == "old") == reused, name

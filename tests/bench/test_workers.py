@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from tsad_drake.bench.runner import EpisodeSpec, spec_scenario
+from tsad_drake.pipeline import EpisodeSettings
 from tsad_drake.scenario import scene_digest
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
@@ -85,7 +86,7 @@ def test_ctrl_c_keeps_finished_rows_and_stops_workers(tmp_path):
     rows_path = tmp_path / "bench.json.rows.jsonl"
     rows = []
     for seed in (0, 1):
-        spec = EpisodeSpec(scenario="3", seed=seed, planner="gp3", feasibility="geometric")
+        spec = EpisodeSpec("3", seed, EpisodeSettings(planner="gp3", feasibility="geometric"))
         row = {"success": seed == 0, "num_actions": 3, "falls": 0, "planning_time_s": 0.1,
                "failure_reason": "" if seed == 0 else "planning failed", "seed": seed,
                "scene_digest": scene_digest(spec_scenario(spec)),

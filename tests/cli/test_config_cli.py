@@ -9,6 +9,7 @@ from frozen_scenes import load_scene
 
 from tsad_drake.bench.report import group_by_scenario
 from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec
+from tsad_drake.pipeline import EpisodeSettings
 from tsad_drake.run_config import (
     SECTIONS,
     apply_sets,
@@ -129,9 +130,10 @@ def test_none_values_and_nested_fields_survive_the_round_trip(tmp_path):
 
 
 def test_bench_keeps_rows_and_report_columns_of_different_configs_apart():
-    base = EpisodeSpec("1", 0, "gp3", "geometric")
-    other = EpisodeSpec("1", 0, "gp3", "geometric",
-                        config=apply_sets(default_run_config("gp3"), ["planner.iterations=50"]))
+    base = EpisodeSpec("1", 0, EpisodeSettings("gp3", "geometric"))
+    other = EpisodeSpec("1", 0, EpisodeSettings(
+        "gp3", "geometric",
+        config=apply_sets(default_run_config("gp3"), ["planner.iterations=50"])))
     assert "config_digest" in SPEC_KEYS and base.key() != other.key()
-    docs = [{"spec": {k: getattr(spec, k) for k in SPEC_KEYS}} for spec in (base, other)]
+    docs = [{"spec": spec.identity()} for spec in (base, other)]
     assert len(group_by_scenario(docs)["1"]) == 2

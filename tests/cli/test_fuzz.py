@@ -141,9 +141,13 @@ class StandIns:
         if settings.motion and out_dir is not None:
             write_scene_directives(scenario, out_dir)
             atomic_write_text(out_dir / "replay.html", "<html></html>")
-        return {"theta_star_deg": 0.0, "actions": [], "success": seed % 2 == 0,
-                "failure_reason": "" if seed % 2 == 0 else "stand-in", "num_actions": 1,
-                "falls": 0, "planning_time_s": 0.0, "motion": [], "motion_feasible_share": None}
+        from tsad_drake.execution.record import EpisodeRecord
+
+        return EpisodeRecord(scenario.name, seed, settings.planner, settings.feasibility,
+                             success=seed % 2 == 0, num_actions=1, theta_star_deg=0.0,
+                             failure_reason="" if seed % 2 == 0 else "stand-in",
+                             motion_checked=settings.motion,
+                             motion=[] if settings.motion else None)
 
     @staticmethod
     def render_and_write(scenario, out, segmentation="label"):

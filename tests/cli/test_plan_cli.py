@@ -7,6 +7,7 @@ from frozen_scenes import load_scene
 
 from tsad_drake.bench.report import _label
 from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec
+from tsad_drake.pipeline import EpisodeSettings
 from tsad_drake.planning.tsad_config import EXTRAS
 from tsad_drake.scenario import save_scenario
 
@@ -31,9 +32,10 @@ def test_plan_with_the_paper_variant_uses_no_extra(tmp_path, capsys):
 
 
 def test_bench_rows_of_the_variants_are_kept_apart():
-    paper = EpisodeSpec("1", 0, "tsad", "geometric", variant="paper")
-    assert "variant" in SPEC_KEYS and paper.key() != EpisodeSpec("1", 0, "tsad", "geometric").key()
-    spec = {k: getattr(paper, k) for k in SPEC_KEYS}
+    paper = EpisodeSpec("1", 0, EpisodeSettings("tsad", "geometric", variant="paper"))
+    full = EpisodeSpec("1", 0, EpisodeSettings("tsad", "geometric"))
+    assert "variant" in SPEC_KEYS and paper.key() != full.key()
+    spec = paper.identity()
     assert _label(spec) == "tsad-paper" and _label({**spec, "variant": "full"}) == "tsad"
 
 

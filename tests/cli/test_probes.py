@@ -15,7 +15,8 @@ import pytest
 import torch
 from cli_harness import assert_clean, bench_document, changed_outside, invoke, snapshot
 
-from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec, spec_scenario
+from tsad_drake.bench.runner import EpisodeSpec, spec_scenario
+from tsad_drake.pipeline import EpisodeSettings
 from tsad_drake.prehensile.checkpoint import save_checkpoint
 from tsad_drake.prehensile.dataset import Samples
 from tsad_drake.prehensile.encoding import NUM_FEATURES
@@ -73,8 +74,8 @@ def _nan_weights(document: dict) -> None:
 
 
 def _finished_row(seed: int) -> dict:
-    spec = EpisodeSpec(scenario="3", seed=seed, planner="gp3", feasibility="geometric")
-    row = {k: getattr(spec, k) for k in SPEC_KEYS} | {"seed": seed}  # as `run_spec` writes it
+    spec = EpisodeSpec("3", seed, EpisodeSettings(planner="gp3", feasibility="geometric"))
+    row = spec.identity() | {"seed": seed}  # as `run_spec` writes it
     row.update(success=True, num_actions=2, falls=0, planning_time_s=0.5, failure_reason="",
                scene_digest=scene_digest(spec_scenario(spec)))
     return row

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from tsad_drake.execution.episode import EpisodeLimits, run_episode
+from tsad_drake.execution.record import MotionVerdict
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
@@ -81,20 +82,20 @@ def baseline():
 def test_rejected_actions_are_excluded_and_tsad_plans_again(baseline):
     scenario, unchecked = baseline
     first = unchecked.actions[0]
-    rejected_key = (first["true_object"], first["place_xy"][0], first["place_xy"][1])
+    rejected_key = (first.true_object, first.place_xy[0], first.place_xy[1])
     checked = []
 
     def check(truth, action):  # stands in for motion planning: refuses one relocation
         checked.append((truth.name, action.object))
         key = (action.object, round(action.x, 6), round(action.y, 6))
-        return (key != rejected_key, "" if key != rejected_key else "boxed in")
+        return MotionVerdict(key != rejected_key, "" if key != rejected_key else "boxed in")
 
     result = _run(scenario, action_check=check)
-    executed = [(a["true_object"], a["place_xy"][0], a["place_xy"][1]) for a in result.actions]
+    executed = [(a.true_object, a.place_xy[0], a.place_xy[1]) for a in result.actions]
     assert rejected_key not in executed
-    rejections = [c for c in result.motion_checks if not c["verified"]]
+    rejections = [c for c in result.motion_checks if not c.verdict.verified]
     # refused once, never proposed again in the episode (not even after other moves)
-    assert len(rejections) == 1 and rejections[0]["failure"] == "boxed in"
+    assert len(rejections) == 1 and rejections[0].verdict.failure == "boxed in"
     # every executed action was checked and passed; every rejected one was not executed
     assert len(result.motion_checks) == len(result.actions) + len(rejections)
     assert result.success, result.failure_reason
@@ -102,7 +103,7 @@ def test_rejected_actions_are_excluded_and_tsad_plans_again(baseline):
 
 def test_always_rejecting_check_ends_the_episode_as_a_failure():
     result = _run(generate_scenario("1", 1),
-                  action_check=lambda truth, action: (False, "unreachable"),
+                  action_check=lambda truth, action: MotionVerdict(False, "unreachable"),
                   limits=EpisodeLimits(max_rejections=1))  # each rejection is a re-plan
     assert not result.success and not result.actions
     assert "no motion-feasible action" in result.failure_reason
@@ -112,20 +113,28 @@ def test_always_rejecting_check_ends_the_episode_as_a_failure():
 def test_a_pick_rejected_at_one_angle_is_retried_at_another(baseline):
     scenario, unchecked = baseline
     first = unchecked.actions[0]
-    vetoed = (first["true_object"], round(first["theta_pick_deg"]))
+    vetoed = (first.true_object, round(first.theta_pick_deg))
 
     def check(truth, action):  # stands in for motion planning: one object not at one angle
         bad = (action.object, round(math.degrees(action.theta_pick))) == vetoed
-        return (not bad, "pick: keyframe grasp: no IK" if bad else "")
+        return MotionVerdict(not bad, "keyframe grasp: no IK" if bad else "")
 
     result = _run(scenario, action_check=check)
     assert result.success, result.failure_reason
-    picks = [(a["true_object"], round(a["theta_pick_deg"])) for a in result.actions]
+    picks = [(a.true_object, round(a.theta_pick_deg)) for a in result.actions]
     assert vetoed not in picks
-    refused = [c for c in result.motion_checks if not c["verified"]]
-    assert refused and all((c["true_object"], round(c["theta_pick_deg"])) == vetoed for c in refused)
+    refused = [c for c in result.motion_checks if not c.verdict.verified]
+    assert refused and all((c.action.true_object, round(c.action.theta_pick_deg)) == vetoed for c in refused)
     # the object is still movable: it is refused once, then taken at another angle or not needed
     assert len(refused) == 1
+    # the verdict carries its phase (a grasp keyframe: the pick half), in the record and its JSON
+    assert refused[0].verdict.phase == "pick"
+    checks = json.loads(json.dumps(result.to_json()))["motion_checks"]
+    assert [(c["phase"], c["cause"]["half"]) for c in checks if not c["verified"]] == [("pick",
+                                                                                      "pick")]
+    assert all(c["phase"] == "" and "cause" not in c for c in checks if c["verified"])
+    assert json.loads(json.dumps(result.to_json()))["motion_feasible_share"] == pytest.approx(
+        (len(checks) - 1) / len(checks))
 
 
 def test_pick_veto_rules_out_only_the_vetoed_angle():
@@ -179,7 +188,7 @@ def test_a_round_that_brings_the_scene_back_excludes_the_moves_that_did():
 
     config = dc.replace(make_config("tsad"), excluded_actions=())
     result = _run(scenario, dc.replace(get_planner("tsad"), plan=back_and_forth), config=config)
-    placed = [tuple(a["place_xy"]) for a in result.actions]
+    placed = [tuple(a.place_xy) for a in result.actions]
     a, b, c = [(round(x, 6), round(y, 6)) for x, y in cells]
     assert placed == [a, b, a, c], placed
     assert relocation_key(name, *a) in seen_exclusions[-1]
@@ -274,13 +283,13 @@ def test_a_failed_plan_looks_again_after_moving_a_neighbour_of_the_target():
     calls.clear()
     result = _run(scenario, stub, limits=EpisodeLimits(look_again=1))
     assert result.success and result.looks_again == 1, result.failure_reason
-    moved = result.actions[0]["true_object"]
+    moved = result.actions[0].true_object
     target = scenario.object(scenario.target)
     nearest = sorted((n for n in truth if n != scenario.target),
                      key=lambda n: math.hypot(truth[n][0] - target.x, truth[n][1] - target.y))
     assert moved in nearest[:3]
     assert result.num_actions == len(result.actions) + 1  # the look-again move counts
-    assert not result.rounds[0]["claimed_success"] and len(calls) >= 2
+    assert not result.rounds[0].claimed_success and len(calls) >= 2
 
 
 def test_a_failed_plan_is_observed_again_before_it_is_acted_on():
@@ -301,11 +310,11 @@ def test_a_failed_plan_is_observed_again_before_it_is_acted_on():
     scenario = generate_scenario("1", 1)
     stub = dc.replace(get_planner("tsad"), plan=fails_first)
     acted = _run(scenario, stub)
-    assert acted.reobservations == 0 and acted.rounds[0]["executed_actions"] >= 1
+    assert acted.reobservations == 0 and acted.rounds[0].executed_actions >= 1
 
     calls.clear()
     result = _run(scenario, stub, limits=EpisodeLimits(reobserve=1))
     assert result.success and result.reobservations == 1, result.failure_reason
-    assert result.rounds[0]["executed_actions"] == 0 and result.rounds[1]["claimed_success"]
+    assert result.rounds[0].executed_actions == 0 and result.rounds[1].claimed_success
     assert calls[0] == calls[1]  # nothing moved between the two observations
     assert result.num_actions == len(result.actions) + 1

@@ -6,17 +6,17 @@ import dataclasses as dc
 import pytest
 
 from studies.physics_agreement import classify
-from tsad_drake.bench.metrics import paper_table, physics_figures, summarise
-from tsad_drake.execution.episode import physics_record
+from tsad_drake.bench.metrics import paper_table, summarise
+from tsad_drake.execution.record import PhysicsSummary
 from tsad_drake.execution.world import ActionOutcome
 from tsad_drake.pipeline import EpisodeSettings, physics_settings
 
 
-def _measured(**fields) -> dict:
+def _measured(**fields) -> ActionOutcome:
     base = dict(object="a", moved=True, placement_error_mm=2.0, slip_mm=1.0, lifted=True,
                 tracking_error=0.01, sim_seconds=3.0, wall_seconds=2.0)
     base.update(fields)
-    return physics_record(ActionOutcome(**base))
+    return ActionOutcome(**base)
 
 
 def test_physics_implies_the_motion_level_and_the_drake_observer():
@@ -28,13 +28,12 @@ def test_physics_implies_the_motion_level_and_the_drake_observer():
 
 
 def test_physics_figures_and_bench_summary():
-    actions = [{"physics": _measured()},
-               {"physics": _measured(moved=False, placement_error_mm=30.0, disturbed=["b"])},
-               {"physics": _measured(moved=False, placement_error_mm=None, slip_mm=None,
-                                     lifted=None, tracking_error=None, sim_seconds=0.0,
-                                     wall_seconds=0.0, reason="no motion: ...")},
-               {"object": "geometric actions carry no physics entry"}]
-    figures = physics_figures(actions)
+    outcomes = [_measured(),
+                _measured(moved=False, placement_error_mm=30.0, disturbed=["b"]),
+                _measured(moved=False, placement_error_mm=None, slip_mm=None, lifted=None,
+                          tracking_error=None, sim_seconds=0.0, wall_seconds=0.0,
+                          reason="no motion: ...")]
+    figures = PhysicsSummary.of(outcomes).to_json()
     assert figures["actions"] == 3 and figures["simulated"] == 2 and figures["moved"] == 1
     assert figures["disturbed"] == 1
     assert figures["placement_error_mm"] == pytest.approx(2.0)  # over moved objects only

@@ -13,6 +13,7 @@ import pytest
 from cli_harness import invoke
 
 from tsad_drake.bench.runner import EpisodeSpec, run_bench
+from tsad_drake.pipeline import EpisodeSettings
 
 
 def untimed(value):
@@ -63,8 +64,9 @@ def test_a_plan_is_the_same_under_load(capsys, tmp_path, model):
 @pytest.mark.slow  # about a minute; tests/bench/test_backends.py compares the backends unloaded
 def test_a_bench_gives_the_same_rows_on_both_backends_under_load(tmp_path):
     pytest.importorskip("ray", reason="the ray extra is not installed (make setup installs it)")
-    specs = [EpisodeSpec(scenario="2", seed=s, planner="tsad", feasibility="geometric",
-                         sensor="realistic", segmentation="cluster") for s in (1003, 1005)]
+    settings = EpisodeSettings(planner="tsad", feasibility="geometric", sensor="realistic",
+                               segmentation="cluster")
+    specs = [EpisodeSpec("2", s, settings) for s in (1003, 1005)]
     alone = run_bench(specs, tmp_path / "process.json", workers=2, progress=False,
                       backend="process")
     with busy_cores(2):

@@ -114,7 +114,7 @@ def test_a_blocker_too_wide_to_grasp_is_reported_by_every_planner(planner, model
     under a second of planning (TSAD checks itself; the loop checks for the others)."""
     from tsad_drake.pipeline import EpisodeSettings, plan_episode
 
-    row = plan_episode(too_wide_scene(), 0, EpisodeSettings(planner=planner, feasibility=model))
+    row = plan_episode(too_wide_scene(), 0, EpisodeSettings(planner=planner, feasibility=model)).to_json()
     assert not row["success"]
     reason = row["failure_reason"]
     assert "unsolvable" in reason and "slab cannot be grasped at any approach angle" in reason

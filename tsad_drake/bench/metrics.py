@@ -83,25 +83,6 @@ def summarise(rows: list[dict]) -> dict:
     return summary
 
 
-def physics_figures(actions: list[dict]) -> dict:
-    """One episode's physics figures from its action records (those with a "physics" entry)."""
-    measured = [a["physics"] for a in actions if "physics" in a]
-    simulated = [m for m in measured if m["sim_seconds"] > 0]
-    sim = sum(m["sim_seconds"] for m in simulated)
-    wall = sum(m["wall_seconds"] for m in simulated)
-    return {
-        "actions": len(measured),
-        "simulated": len(simulated),
-        "moved": sum(m["moved"] for m in measured),
-        "disturbed": sum(len(m["disturbed"]) for m in measured),
-        "placement_error_mm": _mean([m["placement_error_mm"] for m in simulated if m["moved"]]),
-        "slip_mm": _mean([m["slip_mm"] for m in simulated if m["lifted"]]),
-        "tracking_error_max_rad": max((m["tracking_error"] for m in simulated), default=None),
-        "sim_seconds_per_action": sim / len(simulated) if simulated else None,
-        "real_time_factor": sim / wall if wall else None,
-    }
-
-
 def _physics_summary(rows: list[dict]) -> dict:
     figures = [r["physics"] for r in rows if isinstance(r.get("physics"), dict)]
     if not figures:

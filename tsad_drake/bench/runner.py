@@ -49,38 +49,37 @@ from tsad_drake.scenes import BUILTIN_SCENARIOS, generate_scenario
 
 #: keys that identify a bench run; rows from another run are never mixed in on resume
 SPEC_KEYS = ("scenario", "planner", "feasibility", "ablation", "observer", "occluded",
-             "closed_loop", "motion", "world", "variant", "sensor", "segmentation",
+             "closed_loop", "motion", "world", "variant", "sensor", "segmentation", "max_actions",
              "config_digest")
 #: the keys every episode of one bench shares (a folder bench's episodes differ in `scenario`)
 SETTINGS_KEYS = tuple(k for k in SPEC_KEYS if k != "scenario")
+#: each key's value in a row written before the key was recorded
+KEY_DEFAULTS = {**{f.name: f.default for f in dc.fields(EpisodeSettings)}, "occluded": False}
 
 
 @dc.dataclass(frozen=True)
 class EpisodeSpec:
-    """One episode to run."""
+    """One episode to run: a scenario reference, a seed and the settings."""
 
-    scenario: str  #: built-in name or YAML path
+    scenario: str  #: built-in name, YAML path, or one scene file of a folder bench
     seed: int
-    planner: str
-    feasibility: str
-    ablation: str = "none"  #: none | no-ro | no-re (TSAD reward ablations)
-    observer: str = "raycast"  #: raycast (NumPy) | drake (VTK station renders)
+    settings: EpisodeSettings = EpisodeSettings()
+    #: a built-in scenario's occluded variant (the target hidden in every view)
     occluded: bool = False
-    closed_loop: bool = True
-    motion: bool = False  #: verify each action at the motion level before executing it
-    world: str = "geometric"  #: geometric | physics (Drake contact simulation of every action)
-    variant: str = "full"  #: full | paper (TSAD's variants)
-    sensor: str = "ideal"  #: ideal | realistic (depth sensor model, `perception.sensor`)
-    segmentation: str = "label"  #: label (renderer's labels) | cluster (point cloud alone)
-    #: every component's settings (`--config`/`--set`); None: the defaults of the names above
-    config: RunConfig | None = None
     #: plugins a worker imports before the episode (`tsad --plugin`: a planner of your own)
     plugins: tuple[str, ...] = ()
     #: a folder bench's folder (resolved path), `scenario` one scene file in it; None otherwise
     scenes: str | None = None
 
+    def identity(self) -> dict:
+        """The values of `SPEC_KEYS`: what a row records of the run it belongs to."""
+        values = {f.name: getattr(self.settings, f.name) for f in dc.fields(EpisodeSettings)}
+        values.update(scenario=self.scenario, occluded=self.occluded,
+                      config_digest=self.config_digest)
+        return {k: values[k] for k in SPEC_KEYS}
+
     def key(self) -> tuple:
-        return tuple(getattr(self, k) for k in SPEC_KEYS)
+        return tuple(self.identity().values())
 
     @property
     def episode(self) -> tuple[str, int]:
@@ -94,18 +93,10 @@ class EpisodeSpec:
             return None
         return str(Path(self.scenario).relative_to(self.scenes))
 
-    def settings(self) -> EpisodeSettings:
-        """The episode's settings (the names and the config above)."""
-        return EpisodeSettings(planner=self.planner, feasibility=self.feasibility,
-                               ablation=self.ablation, variant=self.variant, sensor=self.sensor,
-                               segmentation=self.segmentation, observer=self.observer,
-                               closed_loop=self.closed_loop, motion=self.motion,
-                               world=self.world, config=self.config)
-
     def run_config(self) -> RunConfig | None:
         """The effective config; None when the names make none (the episode's row says why)."""
         try:
-            return self.settings().run_config()
+            return self.settings.run_config()
         except ValueError:
             return None
 
@@ -120,10 +111,10 @@ class EpisodeSpec:
 def run_named_episode(spec: EpisodeSpec) -> dict:
     """Bench entry point: an `EpisodeSpec` (built-in scenario name + seed) -> JSON row."""
     scenario = spec_scenario(spec)
-    row = run_settings(scenario, spec.seed, spec.settings())
+    row = run_settings(scenario, spec.seed, spec.settings)
     row["scene_digest"] = scene_digest(scenario)
-    if spec.feasibility == "net":
-        row["weights_digest"] = weights_digest(shipped_weights(spec.sensor))
+    if spec.settings.feasibility == "net":
+        row["weights_digest"] = weights_digest(shipped_weights(spec.settings.sensor))
     return row
 
 
@@ -147,7 +138,7 @@ def run_spec(spec: EpisodeSpec) -> dict:
         row = {"success": False, "failure_reason": f"error: {type(err).__name__}: {err}",
                "num_actions": 0, "falls": 0, "planning_time_s": 0.0,
                "traceback": traceback.format_exc(limit=6)}
-    row.update({k: getattr(spec, k) for k in SPEC_KEYS})
+    row.update(spec.identity())
     row["seed"] = spec.seed
     if spec.scenes is not None:
         row["scene_file"] = spec.scene_file
@@ -212,10 +203,12 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[tuple[str, int], di
     except OSError as err:
         raise InputFileError(f"cannot read bench rows {path}: {err.strerror}") from None
     by_episode = {s.episode: s for s in specs}
-    wanted = tuple(getattr(specs[0], k) for k in SETTINGS_KEYS)
-    defaults = {f.name: f.default for f in dc.fields(EpisodeSpec)}  # keys added since a row
+    identity = specs[0].identity()
+    wanted = tuple(identity[k] for k in SETTINGS_KEYS)
+    defaults = dict(KEY_DEFAULTS)  # keys added since a row was written
     # a row from before rows recorded their config ran with the defaults of its selectors
-    defaults["config_digest"] = dc.replace(specs[0], config=None).config_digest
+    defaults["config_digest"] = dc.replace(
+        specs[0], settings=dc.replace(specs[0].settings, config=None)).config_digest
     done, current = {}, ""  # current: the shipped weights' digest, read when a row has one
     for line in text.splitlines():
         try:
@@ -230,7 +223,7 @@ def _load_rows(path: Path, specs: list[EpisodeSpec]) -> dict[tuple[str, int], di
             continue
         digest, weights = row.get("scene_digest"), row.get("weights_digest")
         if weights is not None or row.get("feasibility") == "net":
-            current = current or weights_digest(shipped_weights(specs[0].sensor))
+            current = current or weights_digest(shipped_weights(specs[0].settings.sensor))
             if weights != current:
                 continue
         if digest is not None and digest == scene_digest(spec_scenario(by_episode[episode])):
@@ -351,7 +344,7 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
     scenes = specs[0].scenes
     where = f"s{specs[0].scenario}" if scenes is None else f"{Path(scenes).name}/"
     bar = tqdm(total=len(specs), initial=len(specs) - len(todo), disable=not progress,
-               desc=f"{specs[0].planner} {where}", unit="ep")
+               desc=f"{specs[0].settings.planner} {where}", unit="ep")
 
     def record(row: dict) -> None:
         done[(row["scenario"], row["seed"])] = row
@@ -384,7 +377,7 @@ def run_bench(specs: list[EpisodeSpec], out: Path, workers: int = 1,
         bar.close()
     rows = [done[s.episode] for s in specs]
     config = specs[0].run_config()
-    spec = {k: getattr(specs[0], k) for k in SPEC_KEYS}
+    spec = specs[0].identity()
     if scenes is not None:  # a folder bench: `tsad report` groups its rows under the folder
         spec["scenario"] = scenes
     document = {"spec": spec,

@@ -204,23 +204,31 @@ def _check_planner_args(args: argparse.Namespace):
     return config
 
 
+def episode_settings_of(args: argparse.Namespace, config):
+    """The `EpisodeSettings` the `plan` and `bench` flags name, with the effective `config`."""
+    from tsad_drake.pipeline import EpisodeSettings
+
+    return EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
+                           ablation=args.ablation, variant=args.variant, sensor=args.sensor,
+                           segmentation=args.segmentation, observer=args.observer,
+                           closed_loop=not args.open_loop, max_actions=args.max_actions,
+                           motion=(args.motion or getattr(args, "meshcat", False)
+                                   or args.world == "physics"),
+                           world=args.world, config=config)
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     check_scenario_args(args)
     config = _check_planner_args(args)
-    from tsad_drake.pipeline import EpisodeSettings, plan_episode
+    from tsad_drake.pipeline import plan_episode
 
     out = prepare_out_dir(args.out)
     scenario = resolve_scenario(args.scenario, args.seed, args.occluded)
     meshcat = start_meshcat(scenario, config) if args.meshcat else None
-    settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
-                               ablation=args.ablation, variant=args.variant,
-                               sensor=args.sensor, segmentation=args.segmentation,
-                               observer=args.observer,
-                               closed_loop=not args.open_loop, max_actions=args.max_actions,
-                               motion=args.motion or args.meshcat or args.world == "physics",
-                               world=args.world, config=config)
-    result = plan_episode(scenario, args.seed, settings, out, meshcat=meshcat)
-    result["threads"] = args.threads
+    record = plan_episode(scenario, args.seed, episode_settings_of(args, config), out,
+                          meshcat=meshcat)
+    record.threads = args.threads
+    result = record.to_json()
     from tsad_drake.plan_format import plan_from_episode
 
     # the executed plan in the tsad-plan/1 format, for `tsad verify` (docs/plan-format.md)
@@ -357,15 +365,10 @@ def bench_specs(args: argparse.Namespace) -> tuple[list, Path]:
     out = check_bench_out(args.out)
     if scenes is None:  # a built-in scenario or one YAML file: the same name every episode
         scenarios = [args.scenario] * args.episodes
-    specs = [EpisodeSpec(scenario=scenario, seed=args.seed_start + i, planner=args.planner,
-                         feasibility=args.feasibility, ablation=args.ablation,
-                         variant=args.variant, sensor=args.sensor,
-                         segmentation=args.segmentation,
-                         observer=args.observer, occluded=args.occluded,
-                         closed_loop=not args.open_loop,
-                         motion=args.motion or args.world == "physics", world=args.world,
-                         config=config, scenes=scenes,
-                         plugins=tuple(plugin_reference(p) for p in getattr(args, "plugin", [])))
+    settings = episode_settings_of(args, config)
+    plugins = tuple(plugin_reference(p) for p in getattr(args, "plugin", []))
+    specs = [EpisodeSpec(scenario, args.seed_start + i, settings, occluded=args.occluded,
+                         plugins=plugins, scenes=scenes)
              for i, scenario in enumerate(scenarios)]
     return specs, out
 

@@ -17,8 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from tsad_drake.execution.world import ActionOutcome, World
-from tsad_drake.motion.causes import failure_cause
+from tsad_drake.execution.record import (
+    ActionRecord,
+    EpisodeInfo,
+    EpisodeRecord,
+    MotionCheck,
+    MotionVerdict,
+    PhysicsSummary,
+    RoundRecord,
+)
+from tsad_drake.execution.world import World
 from tsad_drake.planning.actions import random_action
 from tsad_drake.planning.interface import FeasibilityModel
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
@@ -32,93 +40,21 @@ from tsad_drake.scenario import Scenario
 DEFAULT_MAX_ACTIONS = 20
 
 
-def action_record(action: Action, true_name: str = "") -> dict:
-    """An action as plan.json writes it (degrees for angles)."""
-    return {"object": action.object, "true_object": true_name or action.object,
-            "theta_pick_deg": round(math.degrees(action.theta_pick), 6),
-            "place_xy": [round(action.x, 6), round(action.y, 6)],
-            "theta_place_deg": round(math.degrees(action.theta_place), 6),
-            "sub_search": action.sub_search}
-
-
-def physics_record(outcome: ActionOutcome) -> dict:
-    """What a physics world measured of one action, as plan.json writes it (figures rounded)."""
-    record = dc.asdict(outcome)
-    for key, value in record.items():
-        if isinstance(value, float):
-            record[key] = round(value, 6)
-    return record
-
-
-@dc.dataclass
-class EpisodeResult:
-    """Everything an episode did and what `plan.json` needs."""
-
-    scenario: str
-    seed: int
-    planner: str
-    feasibility: str
-    success: bool = False
-    num_actions: int = 0  #: planned pick-and-places executed plus the final retrieval
-    random_actions: int = 0  #: random relocations while the target was unseen
-    looks_again: int = 0  #: relocations after a failed plan (`EpisodeLimits.look_again`)
-    reobservations: int = 0  #: observations again after a failed plan (`EpisodeLimits.reobserve`)
-    relocations: int = 0
-    falls: int = 0
-    fallen: list[str] = dc.field(default_factory=list)
-    failure_reason: str = ""
-    #: a planner call reached its wall-clock safety stop: the episode ended there, a failure
-    #: whose outcome depends on the machine (`Budget`); never set when the counts end searches
-    timed_out: bool = False
-    planning_time_s: float = 0.0  #: s, summed over every planner call
-    #: feasibility queries the network ran (cache misses) and the seconds spent on them
-    #: (encoding and forward passes), summed over every round; 0 for the footprint models
-    network_evaluations: int = 0
-    network_seconds: float = 0.0
-    #: the search's counted work over every round (TSAD: sub-MCTS iterations; ROTS, optimal:
-    #: expanded nodes; GP3: order-search iterations), the unit its budget is counted in
-    search_iterations: int = 0
-    theta_star_deg: float | None = None  #: retrieval angle of the last plan
-    actions: list[dict] = dc.field(default_factory=list)  #: executed actions, in order
-    rounds: list[dict] = dc.field(default_factory=list)  #: per plan: claim vs outcome, stats
-    closed_loop: bool = True
-    #: per action checked at the motion level: object, place_xy, verified, failure
-    motion_checks: list[dict] = dc.field(default_factory=list)
-
-    def to_json(self) -> dict:
-        """A JSON-ready dict (the plan.json fields first)."""
-        return dc.asdict(self)
-
-
-def _round_record(plan: Plan, executed: int, world: World) -> dict:
-    return {"planner": plan.planner, "claimed_success": plan.success,
-            "claimed_actions": len(plan.actions), "executed_actions": executed,
-            "failure_reason": plan.failure_reason, "planning_time_s": plan.planning_time_s,
-            "theta_star_deg": None if plan.theta_star is None else math.degrees(plan.theta_star),
-            "retrievable_after": world.retrievable() and not world.failure,
-            "falls_after": len(world.fallen), "stats": _jsonable(plan.stats)}
-
-
-def _jsonable(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_jsonable(v) for v in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
-
-
-#: an action check: (current true scene, action naming a true object) -> (ok, reason); a reason
-#: starting with "pick" says the object cannot be picked at theta_pick, whatever the placement
-ActionCheck = Callable[[Scenario, Action], tuple[bool, str]]
+#: an action check: (current true scene, action naming a true object) -> the motion level's
+#: verdict (its `phase` says whether the object cannot be picked at theta_pick at all)
+ActionCheck = Callable[[Scenario, Action], MotionVerdict]
 #: the feasibility model of one round: (true scene, workspace) -> model (only the oracle reads
 #: the true scene)
 ModelFactory = Callable[[Scenario, Workspace], FeasibilityModel]
 
 
+def _round_record(plan: Plan, executed: int, world: World) -> RoundRecord:
+    return RoundRecord.of(plan, executed, world.retrievable() and not world.failure,
+                          len(world.fallen))
+
+
 def _execute(world: World, state: PlanningState, actions: list[Action],
-             result: EpisodeResult, check: ActionCheck | None = None,
+             record: EpisodeRecord, check: ActionCheck | None = None,
              withhold: bool = False) -> tuple[int, Action | None]:
     """Execute `actions` in the world; returns how many were executed and the refused one, if any.
 
@@ -133,18 +69,13 @@ def _execute(world: World, state: PlanningState, actions: list[Action],
         name = world.true_name(action.object, obj.x, obj.y)
         true_action = dc.replace(action, object=name)
         if check is not None:
-            ok, why = check(world.scenario(), true_action)
-            record = {**action_record(action, name), "verified": ok, "failure": why}
-            if not ok:
-                record["cause"] = failure_cause(why)
-            result.motion_checks.append(record)
-            if not ok and withhold:
+            verdict = check(world.scenario(), true_action)
+            record.motion_checks.append(MotionCheck(ActionRecord.of(action, name), verdict))
+            if not verdict.verified and withhold:
                 return n, action
         outcome = world.execute(true_action)
-        record = action_record(action, name)
-        if world.measures_physics:
-            record["physics"] = physics_record(outcome)
-        result.actions.append(record)
+        record.actions.append(ActionRecord.of(action, name,
+                                              outcome if world.measures_physics else None))
         sim = simulate_pick_place(sim, action)
     return len(actions), None
 
@@ -174,7 +105,7 @@ class EpisodeLimits:
 def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config: Any, seed: int,
                 closed_loop: bool = True, limits: EpisodeLimits | None = None,
                 action_check: ActionCheck | None = None,
-                feasibility_name: str = "") -> EpisodeResult:
+                feasibility_name: str = "", info: EpisodeInfo | None = None) -> EpisodeRecord:
     """Run one episode of `planner` in `world` (see the module docstring).
 
     Args:
@@ -190,6 +121,7 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
             with `exclusions` plans again without a refused action, for the others the verdict
             is only recorded.
         feasibility_name: recorded name of the model.
+        info: the settings the record names (`EpisodeInfo`; the composition root fills it in).
     """
     limits = limits or EpisodeLimits()
     if limits.max_actions < 1:
@@ -199,8 +131,9 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
     workspace = make_workspace(start)
     policy = ReplanningPolicy(planner, config, closed_loop, start, limits.max_rejections,
                               limits.fail_fast)
-    result = EpisodeResult(start.name, seed, planner.name, feasibility_name,
-                           closed_loop=closed_loop)
+    record = EpisodeRecord(start.name, seed, planner.name, feasibility_name,
+                           info=info or EpisodeInfo(), closed_loop=closed_loop,
+                           motion_checked=action_check is not None)
     models: list[FeasibilityModel] = []  #: every round's model (one per observation)
     reason = ""
     unsolvable_looks = 0  #: observations again after unsolvable rounds
@@ -216,40 +149,40 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
             if action is None:
                 reason = "target unseen and nothing can be moved"
                 break
-            _execute(world, state, [action], result)
-            result.random_actions += 1
+            _execute(world, state, [action], record)
+            record.random_actions += 1
             continue
         plan = policy.plan(state, feasibility, workspace, rng)
         if plan.timed_out:
-            result.timed_out = True
-            result.planning_time_s += plan.planning_time_s
-            result.rounds.append(_round_record(plan, 0, world))
+            record.timed_out = True
+            record.planning_time_s += plan.planning_time_s
+            record.rounds.append(_round_record(plan, 0, world))
             reason = plan.failure_reason
             break
         if (not plan.success and plan.stats.get("unsolvable")
                 and unsolvable_looks < limits.reobserve_unsolvable):
-            result.planning_time_s += plan.planning_time_s
-            result.rounds.append(_round_record(plan, 0, world))
-            result.reobservations += 1
+            record.planning_time_s += plan.planning_time_s
+            record.rounds.append(_round_record(plan, 0, world))
+            record.reobservations += 1
             unsolvable_looks += 1
             continue
-        if not plan.success and result.reobservations < limits.reobserve:
-            result.planning_time_s += plan.planning_time_s
-            result.rounds.append(_round_record(plan, 0, world))
-            result.reobservations += 1
+        if not plan.success and record.reobservations < limits.reobserve:
+            record.planning_time_s += plan.planning_time_s
+            record.rounds.append(_round_record(plan, 0, world))
+            record.reobservations += 1
             continue
-        if not plan.success and not plan.actions and result.looks_again < limits.look_again:
+        if not plan.success and not plan.actions and record.looks_again < limits.look_again:
             action = neighbour_action(feasibility, state, workspace, rng)
             if action is not None:
-                result.planning_time_s += plan.planning_time_s
-                result.rounds.append(_round_record(plan, 0, world))
-                _execute(world, state, [action], result)
-                result.looks_again += 1
+                record.planning_time_s += plan.planning_time_s
+                record.rounds.append(_round_record(plan, 0, world))
+                _execute(world, state, [action], record)
+                record.looks_again += 1
                 continue
-        reason = _round(world, policy, plan, state, workspace, result, limits, action_check)
-    result.network_evaluations = sum(m.evaluations for m in models)
-    result.network_seconds = sum(m.network_seconds for m in models)
-    return _finish(result, world, reason)
+        reason = _round(world, policy, plan, state, workspace, record, limits, action_check)
+    record.network_evaluations = sum(m.evaluations for m in models)
+    record.network_seconds = sum(m.network_seconds for m in models)
+    return _finish(record, world, reason)
 
 
 #: how many of the target's nearest neighbours a look-again relocation chooses from
@@ -271,26 +204,26 @@ def neighbour_action(feasibility: FeasibilityModel, state: PlanningState, worksp
 
 
 def _round(world: World, policy: ReplanningPolicy, plan: Plan, state: PlanningState,
-           workspace: Workspace, result: EpisodeResult, limits: EpisodeLimits,
+           workspace: Workspace, record: EpisodeRecord, limits: EpisodeLimits,
            action_check: ActionCheck | None) -> str:
     """Execute one plan's round; returns why the episode ends ("" to go on)."""
-    result.planning_time_s += plan.planning_time_s
+    record.planning_time_s += plan.planning_time_s
     if plan.theta_star is not None:
-        result.theta_star_deg = math.degrees(plan.theta_star)
+        record.theta_star_deg = math.degrees(plan.theta_star)
     if not plan.success and not (policy.closed_loop and plan.actions):
-        result.rounds.append(_round_record(plan, 0, world))
+        record.rounds.append(_round_record(plan, 0, world))
         return f"planning failed: {plan.failure_reason}"
     if not plan.actions:
         world.retrieve()
-        result.rounds.append(_round_record(plan, 0, world))
+        record.rounds.append(_round_record(plan, 0, world))
         return "" if world.success else "target not retrievable although the plan claimed it"
     todo = policy.this_round(plan)[:limits.max_actions - world.num_actions]
-    executed, rejected = _execute(world, state, todo, result, action_check,
+    executed, rejected = _execute(world, state, todo, record, action_check,
                                   policy.withholds_rejected)
-    result.rounds.append(_round_record(plan, executed, world))
+    record.rounds.append(_round_record(plan, executed, world))
     policy.executed(todo, executed, world.scenario())
     if rejected is not None:
-        pick = result.motion_checks[-1]["failure"].startswith("pick")
+        pick = record.motion_checks[-1].verdict.phase == "pick"
         if policy.rejected(rejected, pick, workspace):
             return f"no motion-feasible action after {limits.max_rejections} rejections"
         return ""
@@ -300,21 +233,24 @@ def _round(world: World, policy: ReplanningPolicy, plan: Plan, state: PlanningSt
 
 
 def search_count(stats: dict) -> int:
-    """A planner call's counted search work from its stats (see `EpisodeResult.search_iterations`)."""
+    """A planner call's counted search work from its stats (see `EpisodeRecord.search_iterations`)."""
     for key in ("iterations_total", "nodes", "gp3_iterations"):
         if key in stats:
             return int(stats[key])
     return 0
 
 
-def _finish(result: EpisodeResult, world: World, reason: str) -> EpisodeResult:
-    result.search_iterations = sum(search_count(r["stats"]) for r in result.rounds
-                                   if not r["stats"].get("reused"))
+def _finish(record: EpisodeRecord, world: World, reason: str) -> EpisodeRecord:
+    record.search_iterations = sum(search_count(r.stats) for r in record.rounds
+                                   if not r.stats.get("reused"))
     outcome = world.outcome(reason)
-    result.success = outcome.success
-    result.num_actions = outcome.num_actions - result.random_actions
-    result.relocations = outcome.relocations
-    result.falls = outcome.falls
-    result.fallen = list(world.fallen)
-    result.failure_reason = outcome.reason
-    return result
+    record.success = outcome.success
+    record.num_actions = outcome.num_actions - record.random_actions
+    record.relocations = outcome.relocations
+    record.falls = outcome.falls
+    record.fallen = list(world.fallen)
+    record.failure_reason = outcome.reason
+    if world.measures_physics:
+        record.physics = PhysicsSummary.of([a.physics for a in record.actions
+                                            if a.physics is not None], world.retrieval)
+    return record

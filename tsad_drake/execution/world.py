@@ -90,6 +90,8 @@ class World(ABC):
         self.relocations = 0  #: pick-and-places that put an object somewhere else
         self.failure = ""  #: set when the episode has failed
         self.success = False  #: set when the target has been taken out
+        #: what a physics world measured of the target's retrieval (None where nothing is measured)
+        self.retrieval: ActionOutcome | None = None
 
     @property
     def done(self) -> bool:

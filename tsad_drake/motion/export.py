@@ -26,7 +26,6 @@ from pydrake.systems.framework import DiagramBuilder
 
 from tsad_drake.motion.verify import ActionMotion
 from tsad_drake.outputs import OutputDir
-from tsad_drake.planning.types import Action
 from tsad_drake.scenario import ObjectConfig, Scenario, check_object_name
 from tsad_drake.station import HOME_Q, StationConfig
 from tsad_drake.station_models import (
@@ -278,11 +277,3 @@ def scene_directives(scenario: Scenario, X_WS: RigidTransform,
         name=f"{scenario.target}::{TARGET_FRAME}",
         X_PF=Transform(base_frame=f"{scenario.target}::{scenario.target}"))))
     return ModelDirectives(directives=directives)
-
-
-def actions_from_records(records: list[dict]) -> list[Action]:
-    """plan.json `actions` records (degrees, `true_object` when present) -> true-object Actions."""
-    return [Action(r.get("true_object") or r["object"], math.radians(r["theta_pick_deg"]),
-                   float(r["place_xy"][0]), float(r["place_xy"][1]),
-                   math.radians(r["theta_place_deg"]), int(r.get("sub_search", 0)))
-            for r in records]

@@ -458,18 +458,3 @@ def motion_check(scenario: Scenario, action: Action, config: MotionConfig | None
     motion = plan_action(scenario, scenario.objects, action,
                          ready_q(scenario, scenario.objects, config, X_WS), config, X_WS)
     return motion.verified, motion.failure
-
-
-#: keyframes of the pick half of an action (failures there do not depend on the placement)
-PICK_KEYFRAMES = ("pre_grasp", "grasp", "lift", "retreat")
-
-
-def is_pick_failure(failure: str) -> bool:
-    """Whether a named failure lies in the pick half (the object cannot be taken at theta_pick)."""
-    words = failure.split()
-    if len(words) < 2 or words[0] not in ("keyframe", "segment"):
-        return False
-    name = words[1].rstrip(":")
-    if words[0] == "keyframe":
-        return name in PICK_KEYFRAMES
-    return name in ("preshape", "close") or name.split("->")[-1] in PICK_KEYFRAMES
