@@ -16,11 +16,11 @@ def main() -> None:
     args = parser.parse_args()
     scenario = td.load_scenario(args.scene)  # validated; a bad file raises ScenarioError
     settings = td.EpisodeSettings(planner=args.planner, feasibility=args.feasibility)
-    doc = td.plan_episode(scenario, 0, settings)
-    moves = ", ".join(f"{a['object']} -> ({a['place_xy'][0]:.2f}, {a['place_xy'][1]:.2f})"
-                      for a in doc["actions"])
-    print(f"{scenario.name}: {'target retrieved' if doc['success'] else doc['failure_reason']}; "
-          f"{doc['num_actions']} actions: {moves or 'none'}")
+    record = td.plan_episode(scenario, 0, settings)
+    moves = ", ".join(f"{a.object} -> ({a.place_xy[0]:.2f}, {a.place_xy[1]:.2f})"
+                      for a in record.actions)
+    verdict = "target retrieved" if record.success else record.failure_reason
+    print(f"{scenario.name}: {verdict}; {record.num_actions} actions: {moves or 'none'}")
 
 
 if __name__ == "__main__":

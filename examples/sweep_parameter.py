@@ -17,10 +17,10 @@ def sweep(field: str, values: list, scenes: dict[int, td.Scenario], variant: str
         settings = td.EpisodeSettings(planner="tsad", variant=variant,
                                       planner_overrides=((field, value),))
         for seed, scenario in scenes.items():
-            doc = td.plan_episode(scenario, seed, settings)
-            searched = [n for r in doc["rounds"] for n in r["stats"].get("iterations", [])]
-            rows.append({"value": value, "seed": seed, "success": doc["success"],
-                         "actions": doc["num_actions"], "plan_s": doc["planning_time_s"],
+            record = td.plan_episode(scenario, seed, settings)
+            searched = [n for r in record.rounds for n in r.stats.get("iterations", [])]
+            rows.append({"value": value, "seed": seed, "success": record.success,
+                         "actions": record.num_actions, "plan_s": record.planning_time_s,
                          "sub_search_iterations": searched})
     return rows
 

@@ -25,9 +25,9 @@ from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.pipeline import make_feasibility
-from tsad_drake.planning.gp3 import GP3Config, gp3_optimal_angle
+from tsad_drake.planners.gp3 import GP3Config, gp3_optimal_angle
+from tsad_drake.planners.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.interface import angle_index
-from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.registry import get_planner
 from tsad_drake.planning.state import empty_cell_count, make_workspace, state_from_perception
 from tsad_drake.scenario import Scenario

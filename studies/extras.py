@@ -4,7 +4,7 @@
         --json results/extras.json
 
 Runs closed-loop episodes (ray-cast observations, label segmentation, geometric model) of TSAD
-`full`, `paper`, and `full` without each extra of `tsad_config.EXTRAS` (that field at its paper
+`full`, `paper`, and `full` without each extra of `planners.tsad.config.EXTRAS` (that field at its paper
 value), on the same scenes (seeds `--seed-start` ..; `--open-loop`: one plan per episode,
 executed whole), and prints one markdown row per config: success, actions of the successful
 episodes, falls, median planning time per episode, and how often the extras were used.
@@ -22,7 +22,7 @@ import sys
 
 from tsad_drake.outputs import atomic_write_text
 from tsad_drake.pipeline import EpisodeSettings, run_settings
-from tsad_drake.planning.tsad_config import EXTRAS, PAPER, TSADConfig
+from tsad_drake.planners.tsad.config import EXTRAS, PAPER, TSADConfig
 from tsad_drake.runtime import pin_threads
 from tsad_drake.scenes import generate_scenario
 

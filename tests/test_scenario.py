@@ -7,8 +7,8 @@ import pytest
 
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.geometry2d import convex_polygon_distance, width_across
+from tsad_drake.planners.optimal import plan_optimal
 from tsad_drake.planning.feasibility import OracleFeasibility
-from tsad_drake.planning.optimal import plan_optimal
 from tsad_drake.planning.state import make_workspace, true_state
 from tsad_drake.scenario import ScenarioError, load_scenario, save_scenario, validate
 from tsad_drake.scenario_generator import (

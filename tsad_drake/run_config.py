@@ -25,11 +25,11 @@ from tsad_drake.motion.scene import MotionConfig
 from tsad_drake.perception.observe import PerceptionConfig, perception_config
 from tsad_drake.perception.sensor import SensorConfig, sensor_config
 from tsad_drake.physics.config import PhysicsConfig
-from tsad_drake.planning.gp3 import GP3Config
-from tsad_drake.planning.optimal import OptimalConfig
+from tsad_drake.planners.gp3 import GP3Config
+from tsad_drake.planners.optimal import OptimalConfig
+from tsad_drake.planners.rots import ROTSConfig
+from tsad_drake.planners.tsad.config import TSADConfig
 from tsad_drake.planning.registry import make_config
-from tsad_drake.planning.rots import ROTSConfig
-from tsad_drake.planning.tsad_config import TSADConfig
 from tsad_drake.station import StationConfig
 
 #: the planners' config classes (which one `--planner` picks: `planning.registry`)

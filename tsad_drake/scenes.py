@@ -7,8 +7,8 @@ limit) is injected in one place and the generator itself imports no planner.
 
 from __future__ import annotations
 
+from tsad_drake.planners.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.feasibility import OracleFeasibility
-from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planning.state import make_workspace, true_state
 from tsad_drake.scenario import GridConfig, Scenario, ShelfConfig
 from tsad_drake.scenario_generator import BUILTIN_SCENARIOS, GeneratorConfig, generate_scene

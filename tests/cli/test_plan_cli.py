@@ -8,7 +8,7 @@ from frozen_scenes import load_scene
 from tsad_drake.bench.report import _label
 from tsad_drake.bench.runner import SPEC_KEYS, EpisodeSpec
 from tsad_drake.pipeline import EpisodeSettings
-from tsad_drake.planning.tsad_config import EXTRAS
+from tsad_drake.planners.tsad.config import EXTRAS
 from tsad_drake.scenario import save_scenario
 
 

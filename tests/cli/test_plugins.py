@@ -10,8 +10,8 @@ from cli_harness import assert_clean, invoke
 from tsad_drake import plugins
 from tsad_drake.cli.main import build_parser
 from tsad_drake.pipeline import FEASIBILITY_NAMES, OBSERVER_NAMES, WORLD_NAMES
+from tsad_drake.planners.tsad.config import VARIANTS
 from tsad_drake.planning.registry import ABLATIONS, PLANNERS
-from tsad_drake.planning.tsad_config import VARIANTS
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "own_planner.py"
 IDEAL = ["--sensor", "ideal", "--segmentation", "label", "--observer", "raycast"]

@@ -11,10 +11,10 @@ import pytest
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
-from tsad_drake.planning.gp3 import GP3Config, gp3_optimal_angle, plan_gp3
-from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
+from tsad_drake.planners.gp3 import GP3Config, gp3_optimal_angle, plan_gp3
+from tsad_drake.planners.optimal import OptimalConfig, plan_optimal
+from tsad_drake.planners.rots import plan_rots, plan_rots_star
 from tsad_drake.planning.registry import PLANNERS, make_config
-from tsad_drake.planning.rots import plan_rots, plan_rots_star
 from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.scenario import (
     GridConfig,

@@ -17,10 +17,10 @@ from tsad_drake.perception.observe import (
 from tsad_drake.perception.sensor import sensor_config
 from tsad_drake.perception.types import PerceivedObject, PerceivedScene
 from tsad_drake.pipeline import make_feasibility
+from tsad_drake.planners.tsad.plan import plan_tsad
 from tsad_drake.planning.registry import make_config
 from tsad_drake.planning.solvability import freeable, unsolvable_reason
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.tsad import plan_tsad
 from tsad_drake.scenes import generate_scenario
 
 FIXTURE = Path(__file__).parent / "observations" / "demo_split_obj4.npz"

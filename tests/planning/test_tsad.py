@@ -11,13 +11,13 @@ from frozen_scenes import load_scene
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
+from tsad_drake.planners.tsad.config import TSADConfig
+from tsad_drake.planners.tsad.plan import plan_tsad
 from tsad_drake.planning.baseline_common import Budget
 from tsad_drake.planning.pick_veto import PickVeto
 from tsad_drake.planning.plan_check import plan_still_valid, shorten_plan
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.tsad import plan_tsad
-from tsad_drake.planning.tsad_config import TSADConfig
 from tsad_drake.planning.types import Action
 from tsad_drake.scenario import ObjectConfig, Scenario
 from tsad_drake.scenario_generator import target_blockers
@@ -155,7 +155,7 @@ def test_the_iteration_budget_ends_a_search_the_same_way_on_any_machine(scenes):
 
 def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypatch):
     # the furthest attempt comes first; the attempts after it cost time too and must be counted
-    import tsad_drake.planning.tsad as tsad_module
+    import tsad_drake.planners.tsad.plan as tsad_module
 
     scenario, workspace, state = scenes[("walled", 0)]
     calls = []
@@ -290,8 +290,8 @@ class _WithRolloutModel(PickVeto):
 
 
 def test_fast_rollouts_join_the_tree_only_as_actions_of_the_searchs_own_model(scenes):
+    from tsad_drake.planners.tsad.sub_search import EmptyCells, SubSearch
     from tsad_drake.planning.interface import angle_index
-    from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 
     scenario, workspace, state = scenes[("1", 0)]
     oracle = make_feasibility("oracle", scenario, workspace)
@@ -408,9 +408,9 @@ def test_shortened_plans_are_split_into_sub_searches_afresh(key, scenes, plans):
 
 
 def test_a_sub_search_offers_distinct_terminal_states_best_first(scenes):
+    from tsad_drake.planners.tsad.plan import optimal_angle
+    from tsad_drake.planners.tsad.sub_search import EmptyCells, SubSearch
     from tsad_drake.planning.interface import angle_index
-    from tsad_drake.planning.tsad import optimal_angle
-    from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 
     scenario, workspace, state = scenes[("1", 0)]
     oracle = make_feasibility("oracle", scenario, workspace)

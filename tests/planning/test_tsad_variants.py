@@ -9,13 +9,13 @@ from frozen_scenes import load_scene
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
+from tsad_drake.planners.gp3 import gp3_optimal_angle
+from tsad_drake.planners.tsad.config import EXTRAS, PAPER, TSADConfig
+from tsad_drake.planners.tsad.plan import plan_tsad
+from tsad_drake.planners.tsad.sub_search import EmptyCells, SubSearch
 from tsad_drake.planning.baseline_common import Budget
-from tsad_drake.planning.gp3 import gp3_optimal_angle
 from tsad_drake.planning.registry import make_config
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.tsad import plan_tsad
-from tsad_drake.planning.tsad_config import EXTRAS, PAPER, TSADConfig
-from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 
 KEYS = [("1", 0), ("1", 1), ("3", 1)]
 

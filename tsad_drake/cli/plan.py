@@ -22,8 +22,8 @@ from tsad_drake.cli.config import add_config_args, effective_config
 from tsad_drake.errors import UsageError
 from tsad_drake.outputs import prepare_out_dir, prepare_out_file
 from tsad_drake.pipeline import FEASIBILITY_NAMES, OBSERVER_NAMES, WORLD_NAMES
+from tsad_drake.planners.tsad.config import VARIANTS
 from tsad_drake.planning.registry import ABLATIONS, PLANNERS
-from tsad_drake.planning.tsad_config import VARIANTS
 from tsad_drake.plugins import plugin_reference
 from tsad_drake.runtime import detail, show_progress
 

@@ -135,8 +135,7 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
                            info=info or EpisodeInfo(), closed_loop=closed_loop,
                            motion_checked=action_check is not None)
     models: list[FeasibilityModel] = []  #: every round's model (one per observation)
-    reason = ""
-    unsolvable_looks = 0  #: observations again after unsolvable rounds
+    reason, unsolvable_looks = "", 0  # why the episode ends; looks again after unsolvable rounds
     while not world.done and not reason:
         if world.num_actions >= limits.max_actions:
             reason = f"action limit {limits.max_actions} reached"

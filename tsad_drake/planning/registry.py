@@ -3,6 +3,10 @@
 Every planner is `plan(state, feasibility, workspace, config, rng) -> Plan`. An entry says which
 of the closed loop's re-planning features the planner takes part in, so the loop never guesses
 from its config's fields; a planner of your own registers a `PlannerSpec` with `register`.
+
+The registry is framework: it imports no planner. The built-in planners (`tsad_drake.planners`)
+register themselves when that package is imported, which every import of one of them, of
+`run_config` (their configs) or of the composition root (`pipeline`) does.
 """
 
 from __future__ import annotations
@@ -10,12 +14,6 @@ from __future__ import annotations
 import dataclasses as dc
 from collections.abc import Callable
 from typing import Any
-
-from tsad_drake.planning.gp3 import GP3Config, plan_gp3
-from tsad_drake.planning.optimal import OptimalConfig, plan_optimal
-from tsad_drake.planning.rots import ROTSConfig, plan_rots, plan_rots_star
-from tsad_drake.planning.tsad import plan_tsad
-from tsad_drake.planning.tsad_config import VARIANTS, TSADConfig
 
 #: plan(state, feasibility, workspace, config, rng) -> Plan
 PlanFunction = Callable[..., Any]
@@ -50,12 +48,6 @@ class PlannerSpec:
     loop_limits: Callable[[Any], dict[str, int]] = lambda config: {}
 
 
-def tsad_loop_limits(config: TSADConfig) -> dict[str, int]:
-    """The closed-loop limits TSAD's config sets (its extras; zero in the paper variant)."""
-    return {"look_again": config.look_again, "reobserve": config.reobserve,
-            "reobserve_unsolvable": config.reobserve_unsolvable}
-
-
 #: TSAD ablations of the paper's Table II: name -> config overrides
 ABLATIONS: dict[str, dict[str, Any]] = {"none": {}, "no-ro": {"use_ro": False},
                                         "no-re": {"use_re": False}}
@@ -66,17 +58,6 @@ PLANNERS: dict[str, PlannerSpec] = {}
 def register(spec: PlannerSpec) -> None:
     """Make `spec` available by its name (`tsad plan --planner NAME` for built-in names)."""
     PLANNERS[spec.name] = spec
-
-
-register(PlannerSpec("tsad", plan_tsad, TSADConfig, sub_searches=True, exclusions=True,
-                     reuse=True, ablations=True, checks_solvability=True, variants=VARIANTS,
-                     loop_limits=tsad_loop_limits))
-register(PlannerSpec("gp3", plan_gp3, GP3Config))
-register(PlannerSpec("rots", plan_rots, ROTSConfig))
-register(PlannerSpec("rots-star", plan_rots_star, lambda: ROTSConfig(check_feasibility=True)))
-register(PlannerSpec("rots-star-search", plan_rots_star,
-                     lambda: ROTSConfig(check_feasibility=True, check_during_search=True)))
-register(PlannerSpec("optimal", plan_optimal, OptimalConfig))
 
 
 def get_planner(name: str) -> PlannerSpec:

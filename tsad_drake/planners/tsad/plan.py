@@ -11,7 +11,7 @@ V(s) = max[R(s), max_child V(s') - alpha] with R(s) = r_t + w_o r_o + w_e r_e, a
 the plan along the highest-value children. theta_pick and theta_place come from the feasibility
 model (`actions.py`); next states from the point-cloud simulation.
 
-Beyond the paper (each a `TSADConfig` field; see its comments; `tsad_config.PAPER` switches every
+Beyond the paper (each a `TSADConfig` field; see its comments; `config.PAPER` switches every
 one off): a complete plan is shortened by dropping or merging actions while
 `plan_check.replay_plan` still accepts it (and split into sub-searches afresh), the shortest of
 `complete_plans` complete plans (found within `improve_iterations` of the first) is returned, a
@@ -29,18 +29,18 @@ from collections.abc import Callable
 
 import numpy as np
 
+from tsad_drake.planners.gp3 import gp3_optimal_angle
+from tsad_drake.planners.tsad.config import EXTRAS, TSADConfig
+from tsad_drake.planners.tsad.sub_search import EmptyCells, SubSearch
 from tsad_drake.planning.actions import (
     choose_theta_pick,
 )
 from tsad_drake.planning.baseline_common import Budget, reachable_angles, timed_out_plan
-from tsad_drake.planning.gp3 import gp3_optimal_angle
 from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.plan_check import (
     shorten_plan,
 )
 from tsad_drake.planning.solvability import unsolvable_reason
-from tsad_drake.planning.tsad_config import EXTRAS, TSADConfig
-from tsad_drake.planning.tsad_search import EmptyCells, SubSearch
 from tsad_drake.planning.types import Action, Plan, PlanningState, Workspace
 
 

@@ -14,6 +14,7 @@ from collections import Counter
 
 import numpy as np
 
+from tsad_drake.planners.tsad.config import TSADConfig
 from tsad_drake.planning.actions import (
     UntriedActions,
     move_table,
@@ -29,7 +30,6 @@ from tsad_drake.planning.plan_check import (
 )
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.state import completed_footprint_points, occupied_cells
-from tsad_drake.planning.tsad_config import TSADConfig
 from tsad_drake.planning.types import Action, PlanningState, Workspace
 
 
@@ -87,7 +87,7 @@ class SubSearch:
                  excluded: frozenset[tuple[str, float, float]] = frozenset()) -> None:
         self.feasibility, self.workspace, self.config, self.rng = feasibility, workspace, config, rng
         #: how often each option beyond the paper changed what this search did, by
-        #: `TSADConfig` field name (`tsad_config.EXTRAS`); the paper variant leaves it empty
+        #: `TSADConfig` field name (`planners.tsad.config.EXTRAS`); the paper variant leaves it empty
         self.extras: Counter[str] = Counter()
         #: the model rollouts draw their actions with (see `TSADConfig.fast_rollouts`)
         self.rollout_model = (feasibility.rollout_model() if config.fast_rollouts
