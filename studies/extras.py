@@ -4,9 +4,10 @@
         --json results/extras.json
 
 Runs closed-loop episodes (ray-cast observations, label segmentation, geometric model) of TSAD
-`full`, `paper`, and `full` without each extra of `planners.tsad.config.EXTRAS` (that field at its paper
-value), on the same scenes (seeds `--seed-start` ..; `--open-loop`: one plan per episode,
-executed whole), and prints one markdown row per config: success, actions of the successful
+`full`, `paper`, and `full` without each extra (`planners.tsad.config.EXTRAS` and the loop's
+`EPISODE_VARIANTS`; that field at its paper value), on the same scenes (seeds `--seed-start` ..;
+`--open-loop`: one plan per episode, executed whole), and prints one markdown row per config:
+success, actions of the successful
 episodes, falls, median planning time per episode, and how often the extras were used.
 `--only NAME,...` restricts the leave-one-out rows to some extras.
 """
@@ -20,14 +21,30 @@ import json
 import statistics
 import sys
 
+from tsad_drake.execution.episode import EpisodeConfig
 from tsad_drake.outputs import atomic_write_text
 from tsad_drake.pipeline import EpisodeSettings, run_settings
-from tsad_drake.planners.tsad.config import EXTRAS, PAPER, TSADConfig
+from tsad_drake.planners.tsad.config import EPISODE_VARIANTS, EXTRAS, PAPER, TSADConfig
+from tsad_drake.run_config import default_run_config
 from tsad_drake.runtime import pin_threads
 from tsad_drake.scenes import generate_scenario
 
-#: extras whose paper value changes only the closed loop's behaviour between rounds
-LOOP_EXTRAS = ("lookahead", "reuse_plans")
+#: the extras that steer the closed loop (fields of the run's `episode` section), at `full`'s values
+LOOP_EXTRAS: dict[str, object] = EPISODE_VARIANTS["full"]
+#: every extra: TSAD's own, then the loop's
+ALL_EXTRAS: tuple[str, ...] = (*EXTRAS, *LOOP_EXTRAS)
+
+
+def _settings(variant: str, closed_loop: bool, safety_stop_s: float, name: str = "",
+              value: object = None) -> EpisodeSettings:
+    """TSAD in `variant` with extra `name` (a planner or an `episode` field) set to `value`."""
+    planner = {"safety_stop_s": safety_stop_s}
+    if name in EXTRAS:
+        planner[name] = value
+    config = default_run_config("tsad", variant=variant, planner_overrides=planner)
+    if name in LOOP_EXTRAS:
+        config = dc.replace(config, episode=dc.replace(config.episode, **{name: value}))
+    return EpisodeSettings(closed_loop=closed_loop, variant=variant, config=config)
 
 
 def configs(only: list[str], closed_loop: bool = True, add: bool = False,
@@ -35,19 +52,21 @@ def configs(only: list[str], closed_loop: bool = True, add: bool = False,
     """The compared configurations by row label: `full`, `paper`, and per extra either `full`
     without it (at its paper value) or, with `add`, `paper` with it (at its full value).
     Every row gets the same wall-clock cap, so the iteration budget ends the searches."""
-    cap = (("safety_stop_s", safety_stop_s),)
-    base = EpisodeSettings(closed_loop=closed_loop, planner_overrides=cap)
-    out = {"full": base, "paper": dc.replace(base, variant="paper")}
-    full = TSADConfig()
+    out = {"full": _settings("full", closed_loop, safety_stop_s),
+           "paper": _settings("paper", closed_loop, safety_stop_s)}
     for name in only:
         if not closed_loop and name in LOOP_EXTRAS:
             continue
-        if add:
-            out[f"paper + {name}"] = dc.replace(
-                base, variant="paper", planner_overrides=cap + ((name, getattr(full, name)),))
+        if name in LOOP_EXTRAS:
+            full_value, paper_value = LOOP_EXTRAS[name], getattr(EpisodeConfig(), name)
         else:
-            out[f"full - {name}"] = dc.replace(base,
-                                               planner_overrides=cap + ((name, PAPER[name]),))
+            full_value, paper_value = getattr(TSADConfig(), name), PAPER[name]
+        if add:
+            out[f"paper + {name}"] = _settings("paper", closed_loop, safety_stop_s, name,
+                                               full_value)
+        else:
+            out[f"full - {name}"] = _settings("full", closed_loop, safety_stop_s, name,
+                                              paper_value)
     return out
 
 
@@ -102,8 +121,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=1, help="worker processes")
     parser.add_argument("--json", default="", help="write every episode's row here")
     args = parser.parse_args(argv)
-    only = [] if args.variants_only else [n for n in args.only.split(",") if n] or list(EXTRAS)
-    unknown = sorted(set(only) - set(EXTRAS))
+    only = [] if args.variants_only else [n for n in args.only.split(",") if n] or list(ALL_EXTRAS)
+    unknown = sorted(set(only) - set(ALL_EXTRAS))
     if unknown or args.episodes < 1 or args.workers < 1:
         print(f"error: unknown extras {unknown}" if unknown else
               "error: --episodes and --workers must be at least 1", file=sys.stderr)

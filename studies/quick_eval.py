@@ -12,6 +12,7 @@ time per episode; `--json FILE` writes every episode's result.
 from __future__ import annotations
 
 import argparse
+import dataclasses as dc
 import json
 import statistics
 import sys
@@ -19,7 +20,7 @@ import time
 
 from tsad_drake.perception.sensor import SENSOR_PRESETS
 from tsad_drake.pipeline import EpisodeSettings, run_settings
-from tsad_drake.planning.registry import get_planner, make_config
+from tsad_drake.run_config import default_run_config
 from tsad_drake.scenes import generate_scenario
 
 
@@ -53,26 +54,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--noise-mm", type=float, default=None,
                         help="constant depth noise (mm) instead of the sensor's range law")
     parser.add_argument("--look-again", type=int, default=None,
-                        help="TSAD's look_again: after a plan fails with nothing to do, move a "
-                             "neighbour of the target and observe again, at most this often "
-                             "(default: the planner config's)")
+                        help="the loop's look_again (`episode` section): after a plan fails "
+                             "with nothing to do, move a neighbour of the target and observe "
+                             "again, at most this often (default: the planner variant's)")
     parser.add_argument("--json", default="", help="write every episode's result here")
     args = parser.parse_args(argv)
     overrides = () if args.noise_mm is None else (("noise_sigma0", args.noise_mm / 1000),
                                                    ("noise_sigma2", 0.0))
-    settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
-                               ablation=args.ablation, closed_loop=not args.open_loop,
-                               segmentation=args.segmentation, sensor=args.sensor,
-                               sensor_overrides=overrides,
-                               planner_overrides=(() if args.look_again is None
-                                                  else (("look_again", args.look_again),)))
     try:
-        get_planner(args.planner)
-        make_config(args.planner, args.ablation)
-        settings.sensor_config()
+        config = default_run_config(args.planner, args.ablation, sensor=args.sensor,
+                                    sensor_overrides=dict(overrides))
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    if args.look_again is not None:
+        config = dc.replace(config, episode=dc.replace(config.episode, look_again=args.look_again))
+    settings = EpisodeSettings(planner=args.planner, feasibility=args.feasibility,
+                               ablation=args.ablation, closed_loop=not args.open_loop,
+                               segmentation=args.segmentation, sensor=args.sensor, config=config)
     if args.episodes < 1:
         print("error: --episodes must be at least 1", file=sys.stderr)
         return 2

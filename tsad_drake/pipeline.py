@@ -10,7 +10,7 @@ from __future__ import annotations
 import dataclasses as dc
 from typing import Any
 
-from tsad_drake.execution.episode import EpisodeLimits, run_episode
+from tsad_drake.execution.episode import run_episode
 from tsad_drake.execution.record import EpisodeInfo, EpisodeRecord, MotionVerdict
 from tsad_drake.execution.world import GeometricWorld, Observer, World
 from tsad_drake.perception.observe import PerceptionConfig, perception_config
@@ -229,8 +229,7 @@ def episode_record(scenario: Scenario, seed: int, settings: EpisodeSettings,
                        initial_rearrangement_set_size(scenario))
     record = run_episode(world, planner, model, config.planner, seed,
                          closed_loop=settings.closed_loop,
-                         limits=EpisodeLimits(max_actions=settings.max_actions,
-                                              **planner.loop_limits(config.planner)),
+                         episode=config.episode, max_actions=settings.max_actions,
                          action_check=action_check, feasibility_name=settings.feasibility,
                          info=info)
     if physics_replay is not None and settings.world == "physics":

@@ -1,6 +1,7 @@
 """Every setting of a run in one typed dataclass that loads and dumps as YAML (Drake's typed YAML).
 
-`RunConfig` has one section per component: the planner's config, the depth sensor, perception,
+`RunConfig` has one section per component: the planner's config, the closed loop (`episode`), the
+depth sensor, perception,
 the station (with its camera), the motion planner and the physics world. The selectors of the
 command line (`--planner`, `--ablation`, `--variant`, `--sensor`) pick the defaults
 (`default_run_config`); a YAML file (`merge_file`, `--config`) then replaces the fields it names,
@@ -21,6 +22,7 @@ import yaml
 from pydrake.common.yaml import yaml_dump, yaml_dump_typed, yaml_load_typed
 
 from tsad_drake.errors import UsageError
+from tsad_drake.execution.episode import EpisodeConfig
 from tsad_drake.motion.scene import MotionConfig
 from tsad_drake.perception.observe import PerceptionConfig, perception_config
 from tsad_drake.perception.sensor import SensorConfig, sensor_config
@@ -29,7 +31,7 @@ from tsad_drake.planners.gp3 import GP3Config
 from tsad_drake.planners.optimal import OptimalConfig
 from tsad_drake.planners.rots import ROTSConfig
 from tsad_drake.planners.tsad.config import TSADConfig
-from tsad_drake.planning.registry import make_config
+from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.station import StationConfig
 
 #: the planners' config classes (which one `--planner` picks: `planning.registry`)
@@ -41,6 +43,8 @@ class RunConfig:
     """Every setting of one run, by component (the sections of a config file)."""
 
     planner: PlannerConfig = dc.field(default_factory=TSADConfig)  #: the chosen planner's config
+    #: the closed loop: limits, looks again, plan reuse (defaults: the planner's variant's)
+    episode: EpisodeConfig = dc.field(default_factory=EpisodeConfig)
     sensor: SensorConfig = dc.field(default_factory=SensorConfig)  #: depth error model
     #: depth -> point cloud -> segments -> poses (defaults follow the sensor: `perception_config`)
     perception: PerceptionConfig = dc.field(default_factory=PerceptionConfig)
@@ -72,11 +76,14 @@ def default_run_config(planner: str = "tsad", ablation: str = "none", variant: s
                        sensor: str = "ideal", planner_overrides: dict | None = None,
                        sensor_overrides: dict | None = None) -> RunConfig:
     """The config the named choices give (ValueError on an unknown name or field): the planner's
-    default config in `variant` with `ablation` and `planner_overrides`, the `sensor` preset with
+    default config in `variant` with `ablation` and `planner_overrides`, the closed loop's
+    settings of that variant (`PlannerSpec.episode_variants`), the `sensor` preset with
     `sensor_overrides` and the perception pipeline for that sensor, the other sections' defaults."""
     sensor_settings = sensor_config(sensor, **(sensor_overrides or {}))
-    return RunConfig(planner=make_config(planner, ablation, variant, **(planner_overrides or {})),
-                     sensor=sensor_settings, perception=perception_config(sensor_settings))
+    planner_config = make_config(planner, ablation, variant, **(planner_overrides or {}))
+    episode = EpisodeConfig(**get_planner(planner).episode_variants.get(variant, {}))
+    return RunConfig(planner=planner_config, episode=episode, sensor=sensor_settings,
+                     perception=perception_config(sensor_settings))
 
 
 def _with_nulls(value, plain: dict) -> dict:

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tsad_drake.execution.episode import EpisodeLimits, run_episode
+from tsad_drake.execution.episode import EpisodeConfig, run_episode
 from tsad_drake.execution.record import MotionVerdict
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
@@ -21,9 +21,11 @@ def _observe(truth):
     return observe_raycast(truth).scene
 
 
-def _run(scenario, planner="tsad", feasibility="oracle", config=None, seed=1, **kwargs):
+def _run(scenario, planner="tsad", feasibility="oracle", config=None, seed=1, loop=None,
+         **kwargs):
     """One episode in the geometric world with ray-cast observation; `planner` is a registry
-    name or a `PlannerSpec` (a stub planner: TSAD's entry with another plan function)."""
+    name or a `PlannerSpec` (a stub planner: TSAD's entry with another plan function); the loop
+    plans ahead and reuses plans, with the `loop` fields of `EpisodeConfig` set."""
     spec = get_planner(planner) if isinstance(planner, str) else planner
     world = GeometricWorld(scenario, _observe)
 
@@ -31,7 +33,9 @@ def _run(scenario, planner="tsad", feasibility="oracle", config=None, seed=1, **
         return make_feasibility(feasibility, truth, workspace)
 
     config = config if config is not None else make_config(spec.name)
-    return run_episode(world, spec, model, config, seed, feasibility_name=feasibility, **kwargs)
+    episode = EpisodeConfig(lookahead=True, reuse_plans=True, **(loop or {}))
+    return run_episode(world, spec, model, config, seed, feasibility_name=feasibility,
+                       episode=episode, **kwargs)
 
 
 
@@ -67,7 +71,7 @@ def test_bad_names_and_limits():
         make_config("tsad", "no-xx")
     assert make_config("tsad", "no-ro").use_ro is False
     with pytest.raises(ValueError, match="max_actions"):
-        _run(generate_scenario("1", 1), seed=0, limits=EpisodeLimits(max_actions=0))
+        _run(generate_scenario("1", 1), seed=0, max_actions=0)
 
 
 
@@ -104,7 +108,7 @@ def test_rejected_actions_are_excluded_and_tsad_plans_again(baseline):
 def test_always_rejecting_check_ends_the_episode_as_a_failure():
     result = _run(generate_scenario("1", 1),
                   action_check=lambda truth, action: MotionVerdict(False, "unreachable"),
-                  limits=EpisodeLimits(max_rejections=1))  # each rejection is a re-plan
+                  loop=dict(max_rejections=1))  # each rejection is a re-plan
     assert not result.success and not result.actions
     assert "no motion-feasible action" in result.failure_reason
     assert len(result.motion_checks) == 2
@@ -216,7 +220,7 @@ def _stub_round_trip(scenario, name: str, moves: list[tuple[float, float, float,
 
     config = dc.replace(make_config("tsad"), excluded_actions=())
     result = _run(scenario, dc.replace(get_planner("tsad"), plan=planner), config=config,
-                  limits=EpisodeLimits(max_actions=6))
+                  max_actions=6)
     return result, seen
 
 
@@ -281,7 +285,7 @@ def test_a_failed_plan_looks_again_after_moving_a_neighbour_of_the_target():
     assert ended.looks_again == 0 and not ended.actions
 
     calls.clear()
-    result = _run(scenario, stub, limits=EpisodeLimits(look_again=1))
+    result = _run(scenario, stub, loop=dict(look_again=1))
     assert result.success and result.looks_again == 1, result.failure_reason
     moved = result.actions[0].true_object
     target = scenario.object(scenario.target)
@@ -313,7 +317,7 @@ def test_a_failed_plan_is_observed_again_before_it_is_acted_on():
     assert acted.reobservations == 0 and acted.rounds[0].executed_actions >= 1
 
     calls.clear()
-    result = _run(scenario, stub, limits=EpisodeLimits(reobserve=1))
+    result = _run(scenario, stub, loop=dict(reobserve=1))
     assert result.success and result.reobservations == 1, result.failure_reason
     assert result.rounds[0].executed_actions == 0 and result.rounds[1].claimed_success
     assert calls[0] == calls[1]  # nothing moved between the two observations

@@ -26,11 +26,11 @@ def _moved(scene, name, x, y):
 def test_closed_loop_asks_tsad_for_one_sub_search_unless_it_looks_ahead():
     scene = generate_scenario("1", 1)
     tsad = get_planner("tsad")
-    config = make_config("tsad", lookahead=False)
+    config = make_config("tsad")
     assert ReplanningPolicy(tsad, config, True, scene).config.max_sub_searches == 1
     assert ReplanningPolicy(tsad, config, False, scene).config.max_sub_searches == config.max_sub_searches
-    ahead = make_config("tsad", lookahead=True)
-    assert ReplanningPolicy(tsad, ahead, True, scene).config.max_sub_searches == ahead.max_sub_searches
+    ahead = ReplanningPolicy(tsad, config, True, scene, lookahead=True)
+    assert ahead.config.max_sub_searches == config.max_sub_searches
     gp3 = get_planner("gp3")  # no sub-searches, no exclusions: its config is left alone
     assert ReplanningPolicy(gp3, make_config("gp3"), True, scene).config == make_config("gp3")
 
@@ -76,7 +76,8 @@ def test_rejections_veto_a_pick_angle_or_exclude_a_relocation_and_end_after_the_
 
 def test_the_rest_of_a_plan_is_kept_for_the_next_round_and_dropped_when_cut_short():
     scene = generate_scenario("2", 16)
-    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", safety_stop_s=600.0), True, scene)
+    policy = ReplanningPolicy(get_planner("tsad"), make_config("tsad", safety_stop_s=600.0), True, scene,
+                              lookahead=True, reuse_plans=True)
     actions = [Action("obj1", 0.0, 0.05, 0.2, 0.0, 0), Action("obj2", 0.0, 0.05, -0.2, 0.0, 1)]
     todo = policy.this_round(Plan("tsad", 0.0, actions, True))
     assert todo == actions[:1] and policy.pending.actions == actions[1:]

@@ -81,29 +81,36 @@ def _execute(world: World, state: PlanningState, actions: list[Action],
 
 
 @dc.dataclass
-class EpisodeLimits:
-    """When an episode gives up."""
+class EpisodeConfig:
+    """The closed loop's settings (the run's `episode` section): when an episode gives up, and
+    how it plans, looks and acts again. The defaults are the paper's loop; TSAD's `full` variant
+    turns its loop extras on (`planners.tsad.config.EPISODE_VARIANTS`)."""
 
-    max_actions: int = DEFAULT_MAX_ACTIONS  #: pick-and-places, random ones included (>= 1)
-    max_rejections: int = 8  #: consecutive motion-level rejections
+    max_rejections: int = 8  #: consecutive motion-level rejections that end the episode
     #: relocations of a target's neighbour after a plan fails with nothing to execute, each
-    #: followed by a new observation (`TSADConfig.look_again`; 0: the episode ends there)
+    #: followed by a new observation (0: the episode ends there)
     look_again: int = 0
     #: observations of the unchanged scene after a failed plan, before acting on it
-    #: (`TSADConfig.reobserve`)
     reobserve: int = 0
     #: observations of the unchanged scene after a plan that failed as unsolvable (the plan's
     #: stats say `unsolvable`: `planning.solvability`), before `look_again`
-    #: (`TSADConfig.reobserve_unsolvable`)
     reobserve_unsolvable: int = 0
     #: before asking a planner that does not check itself (`PlannerSpec.checks_solvability`),
     #: test whether any sequence can free the target (`planning.solvability`); when none can,
     #: the round fails at once with the reason (stats `unsolvable`)
     fail_fast: bool = True
+    #: a planner with sub-searches still plans all of them in closed loop (and the loop executes
+    #: the first), so the executed sub-plan is part of a complete plan; False asks for the first
+    #: sub-search only (`PlannerSpec.sub_searches`)
+    lookahead: bool = False
+    #: keep the rest of the last plan while a new observation still admits it, instead of
+    #: planning afresh every round (`PlannerSpec.reuse`)
+    reuse_plans: bool = False
 
 
 def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config: Any, seed: int,
-                closed_loop: bool = True, limits: EpisodeLimits | None = None,
+                closed_loop: bool = True, episode: EpisodeConfig | None = None,
+                max_actions: int = DEFAULT_MAX_ACTIONS,
                 action_check: ActionCheck | None = None,
                 feasibility_name: str = "", info: EpisodeInfo | None = None) -> EpisodeRecord:
     """Run one episode of `planner` in `world` (see the module docstring).
@@ -116,29 +123,27 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
         seed: seeds the planner's and the random relocations' generator.
         closed_loop: execute the first sub-search only, then observe and plan again; a plan that
             stops short of the target is still executed when it has actions.
-        limits: action and rejection limits.
+        episode: the loop's settings (`EpisodeConfig`: limits, looks again, plan reuse).
+        max_actions: pick-and-places allowed in the episode, random ones included (>= 1).
         action_check: verifies each action before it is executed (motion planning); a planner
-            with `exclusions` plans again without a refused action, for the others the verdict
-            is only recorded.
+            with `exclusions` plans again without a refused action, others' verdicts are kept.
         feasibility_name: recorded name of the model.
         info: the settings the record names (`EpisodeInfo`; the composition root fills it in).
     """
-    limits = limits or EpisodeLimits()
-    if limits.max_actions < 1:
+    limits = episode or EpisodeConfig()
+    if max_actions < 1:
         raise ValueError("max_actions must be at least 1")
-    rng = np.random.default_rng(seed)
-    start = world.scenario()
+    rng, start = np.random.default_rng(seed), world.scenario()
     workspace = make_workspace(start)
     policy = ReplanningPolicy(planner, config, closed_loop, start, limits.max_rejections,
-                              limits.fail_fast)
-    record = EpisodeRecord(start.name, seed, planner.name, feasibility_name,
-                           info=info or EpisodeInfo(), closed_loop=closed_loop,
-                           motion_checked=action_check is not None)
+                              limits.fail_fast, limits.lookahead, limits.reuse_plans)
+    record = EpisodeRecord(start.name, seed, planner.name, feasibility_name, info or EpisodeInfo(),
+                           closed_loop=closed_loop, motion_checked=action_check is not None)
     models: list[FeasibilityModel] = []  #: every round's model (one per observation)
     reason, unsolvable_looks = "", 0  # why the episode ends; looks again after unsolvable rounds
     while not world.done and not reason:
-        if world.num_actions >= limits.max_actions:
-            reason = f"action limit {limits.max_actions} reached"
+        if world.num_actions >= max_actions:
+            reason = f"action limit {max_actions} reached"
             break
         state = state_from_perception(world.observe())
         models.append(model(world.scenario(), workspace))
@@ -178,7 +183,8 @@ def run_episode(world: World, planner: PlannerSpec, model: ModelFactory, config:
                 _execute(world, state, [action], record)
                 record.looks_again += 1
                 continue
-        reason = _round(world, policy, plan, state, workspace, record, limits, action_check)
+        reason = _round(world, policy, plan, state, workspace, record, limits, max_actions,
+                        action_check)
     record.network_evaluations = sum(m.evaluations for m in models)
     record.network_seconds = sum(m.network_seconds for m in models)
     return _finish(record, world, reason)
@@ -203,7 +209,7 @@ def neighbour_action(feasibility: FeasibilityModel, state: PlanningState, worksp
 
 
 def _round(world: World, policy: ReplanningPolicy, plan: Plan, state: PlanningState,
-           workspace: Workspace, record: EpisodeRecord, limits: EpisodeLimits,
+           workspace: Workspace, record: EpisodeRecord, limits: EpisodeConfig, max_actions: int,
            action_check: ActionCheck | None) -> str:
     """Execute one plan's round; returns why the episode ends ("" to go on)."""
     record.planning_time_s += plan.planning_time_s
@@ -216,7 +222,7 @@ def _round(world: World, policy: ReplanningPolicy, plan: Plan, state: PlanningSt
         world.retrieve()
         record.rounds.append(_round_record(plan, 0, world))
         return "" if world.success else "target not retrievable although the plan claimed it"
-    todo = policy.this_round(plan)[:limits.max_actions - world.num_actions]
+    todo = policy.this_round(plan)[:max_actions - world.num_actions]
     executed, rejected = _execute(world, state, todo, record, action_check,
                                   policy.withholds_rejected)
     record.rounds.append(_round_record(plan, executed, world))

@@ -209,8 +209,8 @@ class EpisodeRecord:
     success: bool = False
     num_actions: int = 0  #: planned pick-and-places executed plus the final retrieval
     random_actions: int = 0  #: random relocations while the target was unseen
-    looks_again: int = 0  #: relocations after a failed plan (`EpisodeLimits.look_again`)
-    reobservations: int = 0  #: observations again after a failed plan (`EpisodeLimits.reobserve`)
+    looks_again: int = 0  #: relocations after a failed plan (`EpisodeConfig.look_again`)
+    reobservations: int = 0  #: observations again after a failed plan (`EpisodeConfig.reobserve`)
     relocations: int = 0
     falls: int = 0
     fallen: list[str] = dc.field(default_factory=list)

@@ -9,20 +9,13 @@ from __future__ import annotations
 from tsad_drake.planners.gp3 import GP3Config, plan_gp3
 from tsad_drake.planners.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planners.rots import ROTSConfig, plan_rots, plan_rots_star
-from tsad_drake.planners.tsad.config import VARIANTS, TSADConfig
+from tsad_drake.planners.tsad.config import EPISODE_VARIANTS, VARIANTS, TSADConfig
 from tsad_drake.planners.tsad.plan import plan_tsad
 from tsad_drake.planning.registry import PlannerSpec, register
 
-
-def tsad_loop_limits(config: TSADConfig) -> dict[str, int]:
-    """The closed-loop limits TSAD's config sets (its extras; zero in the paper variant)."""
-    return {"look_again": config.look_again, "reobserve": config.reobserve,
-            "reobserve_unsolvable": config.reobserve_unsolvable}
-
-
 register(PlannerSpec("tsad", plan_tsad, TSADConfig, sub_searches=True, exclusions=True,
                      reuse=True, ablations=True, checks_solvability=True, variants=VARIANTS,
-                     loop_limits=tsad_loop_limits))
+                     episode_variants=EPISODE_VARIANTS))
 register(PlannerSpec("gp3", plan_gp3, GP3Config))
 register(PlannerSpec("rots", plan_rots, ROTSConfig))
 register(PlannerSpec("rots-star", plan_rots_star, lambda: ROTSConfig(check_feasibility=True)))

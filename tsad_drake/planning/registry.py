@@ -27,25 +27,25 @@ class PlannerSpec:
     plan: PlanFunction
     default_config: Callable[[], Any]
     #: plans in sub-searches: in closed loop it is asked for the first one only
-    #: (`config.max_sub_searches = 1`) unless `config.lookahead` is set
+    #: (`config.max_sub_searches = 1`) unless the run's `episode.lookahead` is set
     sub_searches: bool = False
     #: honours excluded relocations (`config.excluded_actions`): a relocation motion planning
     #: refused, or one that brought the scene back to an earlier configuration, is excluded and
     #: the planner asked again
     exclusions: bool = False
     #: the closed loop may keep the rest of its last plan while a new observation still admits
-    #: it (`config.reuse_plans`)
+    #: it (the run's `episode.reuse_plans`)
     reuse: bool = False
     #: decides itself whether a problem can be solved (TSAD's `fail_fast`, off in its paper
-    #: variant); for the others the closed loop checks before asking (`EpisodeLimits.fail_fast`)
+    #: variant); for the others the closed loop checks before asking (`episode.fail_fast`)
     checks_solvability: bool = False
     #: takes the paper's reward ablations (`ABLATIONS`)
     ablations: bool = False
     #: named variants: name -> config overrides ("full" is the default config)
     variants: dict[str, dict[str, Any]] = dc.field(default_factory=lambda: {"full": {}})
-    #: config -> the closed loop's limits it sets (`EpisodeLimits` fields: look_again,
-    #: reobserve, reobserve_unsolvable); none by default
-    loop_limits: Callable[[Any], dict[str, int]] = lambda config: {}
+    #: per variant, the run's `episode` section fields it sets (`execution.episode.EpisodeConfig`:
+    #: look_again, lookahead, ...); a variant not named keeps the section's defaults
+    episode_variants: dict[str, dict[str, Any]] = dc.field(default_factory=dict)
 
 
 #: TSAD ablations of the paper's Table II: name -> config overrides

@@ -53,8 +53,11 @@ class ReplanningPolicy:
     """One episode's re-planning memory for planner `spec` (see the module docstring)."""
 
     def __init__(self, spec: PlannerSpec, config: Any, closed_loop: bool, start: Scenario,
-                 max_rejections: int = 8, fail_fast: bool = False) -> None:
-        if closed_loop and spec.sub_searches and not config.lookahead:
+                 max_rejections: int = 8, fail_fast: bool = False, lookahead: bool = False,
+                 reuse_plans: bool = False) -> None:
+        """`lookahead`, `reuse_plans`, `fail_fast`, `max_rejections`: the run's `episode`
+        section (`execution.episode.EpisodeConfig`)."""
+        if closed_loop and spec.sub_searches and not lookahead:
             config = dc.replace(config, max_sub_searches=1)  # the paper: one sub-search per look
         self.spec, self.config, self.closed_loop = spec, config, closed_loop
         self.max_rejections = max_rejections  #: consecutive rejections that end the episode
@@ -66,7 +69,7 @@ class ReplanningPolicy:
         #: the executed actions as planned: keys come from the exact cell centres (a key made
         #: from a rounded record can round the other way at a 4-decimal tie)
         self.done: list[Action] = []
-        self.reuse = closed_loop and spec.reuse and config.reuse_plans
+        self.reuse = closed_loop and spec.reuse and reuse_plans
         self.pending: Plan | None = None  #: the unexecuted sub-searches of the last plan
         #: test solvability before asking a planner that does not itself (`solvability`)
         self.fail_fast = fail_fast and not spec.checks_solvability

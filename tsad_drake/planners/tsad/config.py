@@ -6,7 +6,8 @@ theta* from GP3's search, sequential sub-MCTS run for a fixed number of iteratio
 reward (r_e floored at 0), value update, UCB, uniform random rollouts that only estimate values,
 extraction along the highest-value children, one sub-search planned per observation, no plan
 reuse. Parameters the paper does not state (iterations, c, alpha, d_max) keep the defaults below.
-`EXTRAS` lists the fields that are extras (docs/benchmark.md measures each).
+`EXTRAS` lists the fields that are extras (docs/benchmark.md measures each); the extras that steer
+the closed loop are the run's `episode` section (`EPISODE_VARIANTS`).
 """
 
 from __future__ import annotations
@@ -56,13 +57,6 @@ class TSADConfig:
     #: whole sequential searches tried (fresh random streams) until one reaches R = empty; the
     #: sub-searches are myopic, so a dead end later on is escaped by searching again
     restarts: int = 2
-    #: closed loop: still plan every sub-search (and execute only the first), so the executed
-    #: sub-plan is part of a complete plan; False is the paper's first-sub-search-only planning
-    lookahead: bool = True
-    #: closed loop: after a sub-search is executed and the scene observed again, keep the rest of
-    #: the last plan when it is still feasible on the new observation (`plan_check`) instead of
-    #: searching afresh; False re-plans every round as the paper does
-    reuse_plans: bool = True
     #: drop or merge the actions of a found plan that it does not need (`plan_check.shorten_plan`):
     #: random rollouts leave detours in the tree; False keeps the plan as the search extracted it
     shorten: bool = True
@@ -98,35 +92,19 @@ class TSADConfig:
     #: r_e may go negative (a state with fewer empty cells than the reference is penalised);
     #: False floors r_e at 0 (the paper: "at the initial value of 0, the value increases by 0.1")
     negative_empty_reward: bool = True
-    #: closed loop: when a plan fails with nothing to execute ("no terminal state found", "target
-    #: cannot be grasped"), the episode moves one of the target's nearest neighbours to a random
-    #: feasible place and observes again, at most this many times (perception errors such as a
-    #: cut-off fragment blocking every corridor change with the scene); 0 ends the episode there,
-    #: as the paper does (`execution.episode.neighbour_action`)
-    look_again: int = 3
     #: end a call (or back up from a sub-search root) at once when no remove-only sequence can
     #: free the target (`solvability.unsolvable_reason`: e.g. two pieces of one segmented object
     #: blocking each other at every angle), with that reason, instead of searching until the
     #: budget is spent; False searches anyway, as the paper does
     fail_fast: bool = True
-    #: closed loop: observations of the unchanged scene after a round that failed as unsolvable
-    #: (a segmentation that cut an object apart draws fresh noise), before `look_again`
-    reobserve_unsolvable: int = 2
-    #: closed loop: when a plan fails (nothing found, or a sub-search after the first), the
-    #: episode observes the unchanged scene again before acting, at most this many times per
-    #: episode: each observation draws fresh sensor noise, and a split, merge or fragment that
-    #: made the plan fail is often gone in the next (ideal sensing reads the same scene, and the
-    #: planner searches it again with its generator moved on); 0 acts on the failed plan at once
-    reobserve: int = 0
 
 
 #: the paper's value of every extra: each switches one option beyond the paper off
 PAPER: dict[str, object] = {
     "max_iterations": None, "widening": None, "restarts": 1, "angle_fallbacks": 0,
-    "rollout_bias": 0.0, "lookahead": False, "reuse_plans": False, "shorten": False,
-    "complete_plans": 1, "backtrack_width": 1, "fast_rollouts": False, "angle_search": "gp3",
-    "keep_rollout_paths": False, "terminal_extraction": False, "negative_empty_reward": False,
-    "look_again": 0, "fail_fast": False, "reobserve_unsolvable": 0,
+    "rollout_bias": 0.0, "shorten": False, "complete_plans": 1, "backtrack_width": 1,
+    "fast_rollouts": False, "angle_search": "gp3", "keep_rollout_paths": False,
+    "terminal_extraction": False, "negative_empty_reward": False, "fail_fast": False,
 }
 
 #: the extras, by field name (the keys of `PAPER`)
@@ -134,3 +112,19 @@ EXTRAS: tuple[str, ...] = tuple(PAPER)
 
 #: TSAD's variants: name -> config overrides
 VARIANTS: dict[str, dict[str, object]] = {"full": {}, "paper": PAPER}
+
+#: TSAD's extras that steer the closed loop, not the search: fields of the run's `episode` section
+#: (`execution.episode.EpisodeConfig`) whose defaults, the paper's, switch them off. `full` sets
+#: - lookahead: still plan every sub-search (and execute only the first), so the executed
+#:   sub-plan is part of a complete plan (off: the paper's first-sub-search-only planning);
+#: - reuse_plans: after a sub-search is executed and the scene observed again, keep the rest of
+#:   the last plan while it is still feasible on the new observation (`plan_check`);
+#: - look_again 3: when a plan fails with nothing to execute, move one of the target's nearest
+#:   neighbours to a random feasible place and observe again (perception errors such as a cut-off
+#:   fragment blocking every corridor change with the scene);
+#: - reobserve_unsolvable 2: observe the unchanged scene again after a round that failed as
+#:   unsolvable (a segmentation that cut an object apart draws fresh noise), before look_again.
+EPISODE_VARIANTS: dict[str, dict[str, object]] = {
+    "full": {"lookahead": True, "reuse_plans": True, "look_again": 3, "reobserve_unsolvable": 2},
+    "paper": {},
+}
