@@ -29,7 +29,7 @@ $(STAMP): pyproject.toml constraints.txt | system-deps
 	# torch first: the CPU wheel on this disk (a bare `torch` would pull a CUDA build)
 	$(PY) -m pip install -q torch==2.13.0
 	# the package with the tested pins of constraints.txt (pyproject.toml keeps ranges)
-	$(PY) -m pip install -q -c constraints.txt -e '.[dev,ray]'
+	$(PY) -m pip install -q -c constraints.txt -e '.[dev,ray,net]'
 	touch $(STAMP)
 
 setup: system-deps $(STAMP)

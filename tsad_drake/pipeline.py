@@ -38,7 +38,9 @@ def make_feasibility(name: str, scenario: Scenario, workspace: Workspace, sensor
     if name == "geometric":
         return GeometricFeasibility(workspace)
     if name == "net":
-        from tsad_drake.prehensile.checkpoint import shipped_weights
+        from tsad_drake.prehensile.weights import require_torch, shipped_weights
+
+        require_torch()
         from tsad_drake.prehensile.feasibility import NetFeasibility
 
         return NetFeasibility(workspace, shipped_weights(sensor))

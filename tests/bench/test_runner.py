@@ -214,7 +214,7 @@ def test_rows_of_other_network_weights_are_run_again(tmp_path):
     these weights and drops those of other weights or with no digest (read back without running
     an episode)."""
     from tsad_drake.bench.runner import _load_rows, spec_scenario
-    from tsad_drake.prehensile.checkpoint import weights_digest
+    from tsad_drake.prehensile.weights import weights_digest
     from tsad_drake.scenario import scene_digest
 
     specs = [EpisodeSpec("3", s, EpisodeSettings(planner="tsad", feasibility="net")) for s in (0, 1)]

@@ -7,9 +7,10 @@ import torch
 from tsad_drake.errors import UsageError
 from tsad_drake.prehensile import dataset as pdata
 from tsad_drake.prehensile import encoding
-from tsad_drake.prehensile.checkpoint import DEFAULT_WEIGHTS, save_checkpoint
+from tsad_drake.prehensile.checkpoint import save_checkpoint
 from tsad_drake.prehensile.feasibility import NetFeasibility
 from tsad_drake.prehensile.network import PrehensileNet
+from tsad_drake.prehensile.weights import DEFAULT_WEIGHTS
 
 
 @pytest.fixture(scope="module")

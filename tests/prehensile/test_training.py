@@ -8,9 +8,10 @@ import torch
 
 from tsad_drake.errors import EXIT_BAD_INPUT, UsageError, WeightsError
 from tsad_drake.prehensile import dataset as pdata
-from tsad_drake.prehensile.checkpoint import DEFAULT_WEIGHTS, load_checkpoint, save_checkpoint
+from tsad_drake.prehensile.checkpoint import load_checkpoint, save_checkpoint
 from tsad_drake.prehensile.network import PrehensileNet
 from tsad_drake.prehensile.training import evaluate_scenes, losses, to_tensors
+from tsad_drake.prehensile.weights import DEFAULT_WEIGHTS
 
 
 @pytest.fixture(scope="module")
@@ -109,8 +110,8 @@ def test_realistic_weights_hold_on_fresh_scenes_under_realistic_sensing():
     are the ones the pipeline picks for it."""
     from tsad_drake.pipeline import make_feasibility
     from tsad_drake.planning.state import make_workspace
-    from tsad_drake.prehensile.checkpoint import REALISTIC_WEIGHTS, shipped_weights
     from tsad_drake.prehensile.feasibility import NetFeasibility
+    from tsad_drake.prehensile.weights import REALISTIC_WEIGHTS, shipped_weights
     from tsad_drake.scenes import generate_scenario
 
     assert shipped_weights("realistic") == REALISTIC_WEIGHTS
@@ -135,8 +136,8 @@ def test_realistic_weights_hold_on_fresh_scenes_under_realistic_sensing():
 def test_fine_tuning_starts_from_the_given_weights(tmp_path):
     """`train(init=...)` starts from those weights: with a learning rate of 0 the kept checkpoint
     is the initial network itself, and its meta names the weights it started from."""
-    from tsad_drake.prehensile.checkpoint import weights_digest
     from tsad_drake.prehensile.training import train
+    from tsad_drake.prehensile.weights import weights_digest
 
     data = tmp_path / "data"
     for seed in (3, 35):  # scenario "real" in the train split and in the validation split

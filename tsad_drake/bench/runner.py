@@ -41,7 +41,7 @@ from tsad_drake.errors import InputFileError, RunFailure, UsageError
 from tsad_drake.outputs import OutputDir, atomic_write_text, prepare_out_file
 from tsad_drake.pipeline import EpisodeSettings, run_settings
 from tsad_drake.plugins import load_plugin
-from tsad_drake.prehensile.checkpoint import shipped_weights, weights_digest
+from tsad_drake.prehensile.weights import shipped_weights, weights_digest
 from tsad_drake.run_config import RunConfig, config_digest, run_config_record
 from tsad_drake.runtime import THREAD_ENV_VARS, VERBOSITY_ENV, debug, pin_threads, verbosity
 from tsad_drake.scenario import Scenario, load_scenario, scene_digest

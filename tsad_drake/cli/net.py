@@ -24,6 +24,7 @@ from tsad_drake.errors import UsageError
 from tsad_drake.outputs import atomic_write_text, prepare_out_dir, prepare_out_file
 from tsad_drake.pipeline import OBSERVER_NAMES
 from tsad_drake.prehensile.dataset import Sensing
+from tsad_drake.prehensile.weights import require_torch
 
 MAX_SCENES = 100_000  #: largest --scenes
 
@@ -131,6 +132,7 @@ def cmd_dataset(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    require_torch("tsad train")
     from tsad_drake.prehensile.dataset import load_dataset
     from tsad_drake.prehensile.training import train
 
@@ -161,6 +163,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_net_calibrate(args: argparse.Namespace) -> int:
+    require_torch("tsad net calibrate")
     from tsad_drake.prehensile.checkpoint import load_checkpoint
     from tsad_drake.prehensile.training import calibrate_thresholds
 
@@ -173,6 +176,7 @@ def cmd_net_calibrate(args: argparse.Namespace) -> int:
 
 
 def cmd_net_eval(args: argparse.Namespace) -> int:
+    require_torch("tsad net eval")
     from tsad_drake.prehensile.checkpoint import load_checkpoint
     from tsad_drake.prehensile.feasibility import NetFeasibility
     from tsad_drake.prehensile.training import evaluate_scenes, format_table

@@ -197,7 +197,10 @@ def _check_planner_args(args: argparse.Namespace):
     check_int("--max-actions", args.max_actions, 1, MAX_ACTIONS)
     config = check_selectors(args)
     if args.feasibility == "net":
-        from tsad_drake.prehensile.checkpoint import load_checkpoint, shipped_weights
+        from tsad_drake.prehensile.weights import require_torch, shipped_weights
+
+        require_torch()  # the `net` extra
+        from tsad_drake.prehensile.checkpoint import load_checkpoint
 
         # a missing or mismatched weights file: one line, exit 2
         load_checkpoint(shipped_weights(args.sensor))

@@ -9,7 +9,6 @@ read well formed), so a file from another version or a corrupted one fails with 
 from __future__ import annotations
 
 import dataclasses as dc
-import hashlib
 import math
 from pathlib import Path
 
@@ -19,21 +18,10 @@ from tsad_drake.errors import WeightsError
 from tsad_drake.outputs import atomic_write
 from tsad_drake.prehensile import encoding
 from tsad_drake.prehensile.network import NetConfig, PrehensileNet
+from tsad_drake.prehensile.weights import DEFAULT_WEIGHTS
 
 #: format tag, changed whenever the network or its input encoding changes
 CHECKPOINT_FORMAT = "tsad-prehensile-net-v5"
-#: the shipped weights, produced by `tsad train` (see docs/model-card.md)
-DEFAULT_WEIGHTS = Path(__file__).resolve().parent.parent / "data" / "prehensile_net.pt"
-#: the shipped weights fine-tuned on realistic depth with cluster segmentation (model card)
-REALISTIC_WEIGHTS = DEFAULT_WEIGHTS.with_name("prehensile_net_realistic.pt")
-
-
-def shipped_weights(sensor: str = "ideal") -> Path:
-    """The shipped weights for observations of the sensor called `sensor`: the fine-tune on
-    realistic depth for every sensor but the ideal one."""
-    return DEFAULT_WEIGHTS if sensor == "ideal" else REALISTIC_WEIGHTS
-
-
 def encoding_signature() -> dict:
     """The input-encoding constants a checkpoint must agree with."""
     return {name: getattr(encoding, name) for name in (
@@ -135,10 +123,3 @@ def _check_meta(path: Path, meta) -> None:
                 and all(isinstance(v, int) and not isinstance(v, bool) for v in seeds)
                 and seeds[0] <= seeds[1]):
             raise WeightsError(f"{path}: meta.{key} must be [first seed, last seed]")
-
-
-def weights_digest(path: str | Path | None = None) -> str:
-    """Short fingerprint of a weights file (default: the shipped one): `--feasibility net` rows
-    record it so a resumed bench never mixes in rows planned with another network."""
-    path = Path(path) if path is not None else DEFAULT_WEIGHTS
-    return hashlib.sha1(path.read_bytes()).hexdigest()[:12]

@@ -21,13 +21,14 @@ from torch import nn
 
 from tsad_drake.prehensile import dataset as pdata
 from tsad_drake.prehensile import encoding
-from tsad_drake.prehensile.checkpoint import load_checkpoint, save_checkpoint, weights_digest
+from tsad_drake.prehensile.checkpoint import load_checkpoint, save_checkpoint
 from tsad_drake.prehensile.network import (
     NetConfig,
     PrehensileNet,
     object_presence,
     query_scores,
 )
+from tsad_drake.prehensile.weights import weights_digest
 from tsad_drake.runtime import show_progress
 
 BLOCK_LOSS_WEIGHT = 1.0  #: weight of the per-object blocker loss against the reach loss
