@@ -24,7 +24,7 @@ import sys
 from tsad_drake.execution.episode import EpisodeConfig
 from tsad_drake.outputs import atomic_write_text
 from tsad_drake.pipeline import EpisodeSettings, run_settings
-from tsad_drake.planners.tsad.config import EPISODE_VARIANTS, EXTRAS, PAPER, TSADConfig
+from tsad_drake.planners.tsad.config import EPISODE_VARIANTS, EXTRAS, TSADExtras, with_extras
 from tsad_drake.run_config import default_run_config
 from tsad_drake.runtime import pin_threads
 from tsad_drake.scenes import generate_scenario
@@ -38,10 +38,10 @@ ALL_EXTRAS: tuple[str, ...] = (*EXTRAS, *LOOP_EXTRAS)
 def _settings(variant: str, closed_loop: bool, safety_stop_s: float, name: str = "",
               value: object = None) -> EpisodeSettings:
     """TSAD in `variant` with extra `name` (a planner or an `episode` field) set to `value`."""
-    planner = {"safety_stop_s": safety_stop_s}
+    config = default_run_config("tsad", variant=variant,
+                                planner_overrides={"safety_stop_s": safety_stop_s})
     if name in EXTRAS:
-        planner[name] = value
-    config = default_run_config("tsad", variant=variant, planner_overrides=planner)
+        config = dc.replace(config, planner=with_extras(config.planner, **{name: value}))
     if name in LOOP_EXTRAS:
         config = dc.replace(config, episode=dc.replace(config.episode, **{name: value}))
     return EpisodeSettings(closed_loop=closed_loop, variant=variant, config=config)
@@ -60,7 +60,7 @@ def configs(only: list[str], closed_loop: bool = True, add: bool = False,
         if name in LOOP_EXTRAS:
             full_value, paper_value = LOOP_EXTRAS[name], getattr(EpisodeConfig(), name)
         else:
-            full_value, paper_value = getattr(TSADConfig(), name), PAPER[name]
+            full_value, paper_value = getattr(TSADExtras(), name), getattr(TSADExtras.paper(), name)
         if add:
             out[f"paper + {name}"] = _settings("paper", closed_loop, safety_stop_s, name,
                                                full_value)

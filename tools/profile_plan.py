@@ -18,6 +18,7 @@ import numpy as np
 
 from tsad_drake.perception.sensor import sensor_config
 from tsad_drake.pipeline import RaycastObserver, make_feasibility
+from tsad_drake.planners.tsad.config import with_extras
 from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.planning.state import make_workspace, state_from_perception
 from tsad_drake.scenes import generate_scenario
@@ -38,12 +39,14 @@ def main() -> None:
     parser.add_argument("--segmentation", default="cluster")
     parser.add_argument("--frames", type=int, default=8)
     parser.add_argument("--profile", default="")
-    parser.add_argument("--set", action="append", default=[], help="planner field=value")
+    parser.add_argument("--set", action="append", default=[],
+                        help="planner field=value (a TSAD extra: extras.field=value)")
     args = parser.parse_args()
-    overrides = {}
+    overrides, extras = {}, {}
     for item in args.set:
         key, _, value = item.partition("=")
-        overrides[key] = eval(value)  # noqa: S307 - a developer tool
+        name = key.removeprefix("extras.")
+        (extras if name != key else overrides)[name] = eval(value)  # noqa: S307 - a developer tool
     sensor = sensor_config(args.sensor, **({"frames": args.frames} if args.sensor != "ideal" else {}))
     segmentation = args.segmentation if args.sensor != "ideal" else "label"
     spec = get_planner(args.planner)
@@ -57,6 +60,7 @@ def main() -> None:
         workspace = make_workspace(scenario)
         model = make_feasibility(args.feasibility, scenario, workspace, args.sensor)
         config = make_config(args.planner, **overrides)
+        config = with_extras(config, **extras) if extras else config
         t0 = time.perf_counter()
         if profiler:
             profiler.enable()

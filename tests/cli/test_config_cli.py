@@ -121,11 +121,11 @@ def test_config_dump_round_trips(tmp_path, capsys, flags):
 
 def test_none_values_and_nested_fields_survive_the_round_trip(tmp_path):
     paper = default_run_config("tsad", variant="paper")  # max_iterations and widening are None
-    assert paper.planner.max_iterations is None and paper.planner.widening is None
+    assert paper.planner.extras.max_iterations is None and paper.planner.extras.widening is None
     (tmp_path / "paper.yaml").write_text(dump_run_config(paper))
     assert merge_file(default_run_config("tsad"), str(tmp_path / "paper.yaml")) == paper
-    changed = apply_sets(paper, ["planner.widening=2.5", "perception.cloud.voxel_size=0.004"])
-    assert changed.planner.widening == 2.5 and changed.perception.cloud.voxel_size == 0.004
+    changed = apply_sets(paper, ["planner.extras.widening=2.5", "perception.cloud.voxel_size=0.004"])
+    assert changed.planner.extras.widening == 2.5 and changed.perception.cloud.voxel_size == 0.004
     assert config_digest(changed) != config_digest(paper)
 
 

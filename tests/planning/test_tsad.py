@@ -11,7 +11,7 @@ from frozen_scenes import load_scene
 from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
-from tsad_drake.planners.tsad.config import TSADConfig
+from tsad_drake.planners.tsad.config import TSADConfig, with_extras
 from tsad_drake.planners.tsad.plan import plan_tsad
 from tsad_drake.planning.baseline_common import Budget
 from tsad_drake.planning.pick_veto import PickVeto
@@ -127,7 +127,7 @@ def test_unsolvable_scene_is_a_failure_result(scenes):
     assert not plan.success and plan.failure_reason.startswith("unsolvable")
     assert plan.stats["unsolvable"] and plan.stats["extras_used"]["fail_fast"] == 1
     # without the check (the paper's algorithm) the search ends on its count budget
-    searched = plan_tsad(state, oracle, workspace, dc.replace(CONFIG, fail_fast=False),
+    searched = plan_tsad(state, oracle, workspace, with_extras(CONFIG, fail_fast=False),
                          np.random.default_rng(0))
     assert not searched.success and searched.failure_reason
     assert 0 < searched.stats["iterations_total"] <= CONFIG.iteration_budget
@@ -137,15 +137,15 @@ def test_the_iteration_budget_ends_a_search_the_same_way_on_any_machine(scenes):
     scenario, workspace, state = scenes[("1", 1)]
     oracle = make_feasibility("oracle", scenario, workspace)
     # sub-searches that never stop on their own: only the call's budget ends the search
-    endless = dict(iterations=10**9, max_iterations=10**9)
-    config = dc.replace(CONFIG, iteration_budget=400, **endless)
+    endless = with_extras(dc.replace(CONFIG, iterations=10**9), max_iterations=10**9)
+    config = dc.replace(endless, iteration_budget=400)
     plan = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
     assert not plan.success and "budget" in plan.failure_reason
     assert plan.stats["iterations_total"] == 400 and not plan.timed_out
     again = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
     assert again.actions == plan.actions and again.stats["iterations"] == plan.stats["iterations"]
     # the wall-clock safety stop behind it makes the call a failure, never a shorter search
-    config = dc.replace(CONFIG, iteration_budget=10**9, safety_stop_s=1.0, **endless)
+    config = dc.replace(endless, iteration_budget=10**9, safety_stop_s=1.0)
     t0 = time.perf_counter()
     plan = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
     assert not plan.success and plan.timed_out and plan.stats["timed_out"]
@@ -169,7 +169,7 @@ def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypat
     monkeypatch.setattr(tsad_module, "_sequential_sub_search", attempt)
     t0 = time.perf_counter()
     plan = plan_tsad(state, make_feasibility("oracle", scenario, workspace), workspace,
-                     dc.replace(CONFIG, fail_fast=False), np.random.default_rng(0))
+                     with_extras(CONFIG, fail_fast=False), np.random.default_rng(0))
     wall = time.perf_counter() - t0
     assert not plan.success and len(plan.actions) == 1 and len(calls) >= 3
     assert plan.planning_time_s >= wall - 0.05 >= 0.1 * len(calls) - 0.05

@@ -10,7 +10,7 @@ from tsad_drake.execution.world import GeometricWorld
 from tsad_drake.perception.observe import observe_raycast
 from tsad_drake.pipeline import make_feasibility
 from tsad_drake.planners.gp3 import gp3_optimal_angle
-from tsad_drake.planners.tsad.config import EXTRAS, PAPER, TSADConfig
+from tsad_drake.planners.tsad.config import EXTRAS, TSADConfig, TSADExtras, with_extras
 from tsad_drake.planners.tsad.plan import plan_tsad
 from tsad_drake.planners.tsad.sub_search import EmptyCells, SubSearch
 from tsad_drake.planning.baseline_common import Budget
@@ -33,9 +33,12 @@ def scenes():
 
 def test_every_extra_has_a_paper_value_that_differs_from_full():
     full, paper = make_config("tsad"), make_config("tsad", variant="paper")
-    assert set(EXTRAS) == set(PAPER) and len(EXTRAS) >= 14
+    assert len(EXTRAS) >= 14 and paper.extras == TSADExtras.paper()
     for name in EXTRAS:
-        assert getattr(paper, name) == PAPER[name] != getattr(full, name), name
+        assert getattr(paper.extras, name) != getattr(full.extras, name), name
+    # the variant changes the extras only, and never shares them between configs
+    assert dc.replace(paper, extras=full.extras) == full
+    assert make_config("tsad", variant="paper").extras is not paper.extras
     # the reward ablations stack on the variant
     assert make_config("tsad", "no-ro", variant="paper").use_ro is False
     with pytest.raises(ValueError, match="no variant"):
@@ -91,7 +94,7 @@ def test_paper_rollouts_only_estimate_values_and_r_e_is_floored(scenes):
         nodes.append(node)
         stack.extend(node.children)
     assert min(n.reward for n in nodes) >= -config.w_o  # r_e never below 0; r_o at most -w_o
-    full = dc.replace(config, negative_empty_reward=True)
+    full = with_extras(config, negative_empty_reward=True)
     negative = SubSearch(state, k, feasibility, workspace, full, np.random.default_rng(0), cells,
                          cells(state) + 50)
     assert negative.root.reward < 0

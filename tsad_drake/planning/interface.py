@@ -96,7 +96,7 @@ class FeasibilityModel(ABC):
 
     def rollout_model(self) -> FeasibilityModel:
         """The model a search's random rollouts draw their actions with (default: this one; the
-        network offers a cheaper geometric one, see `TSADConfig.fast_rollouts`)."""
+        network offers a cheaper geometric one, see `TSADExtras.fast_rollouts`)."""
         return self
 
     def evaluate_all(self, state: PlanningState) -> None:  # noqa: B027 - a hint, no-op by default

@@ -11,6 +11,7 @@ register themselves when that package is imported, which every import of one of 
 
 from __future__ import annotations
 
+import copy
 import dataclasses as dc
 from collections.abc import Callable
 from typing import Any
@@ -75,7 +76,7 @@ def make_config(name: str, ablation: str = "none", variant: str = "full", **over
     if variant not in spec.variants:
         raise ValueError(f"planner {name!r} has no variant {variant!r}: use one of "
                          f"{', '.join(spec.variants)}")
-    changes = dict(spec.variants[variant])
+    changes = copy.deepcopy(spec.variants[variant])  # a nested config is never shared
     if ablation != "none":
         if ablation not in ABLATIONS:
             raise ValueError(f"unknown ablation {ablation!r}: use one of {', '.join(ABLATIONS)}")

@@ -235,7 +235,7 @@ class NetFeasibility(FeasibilityModel):
         return reach and not blockers
 
     def rollout_model(self) -> FeasibilityModel:
-        """The cheap model TSAD's rollouts draw random actions with (`TSADConfig.fast_rollouts`)."""
+        """The cheap model TSAD's rollouts draw random actions with (`TSADExtras.fast_rollouts`)."""
         return self.placement_model
 
     def throughput(self) -> float:

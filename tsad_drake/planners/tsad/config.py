@@ -1,13 +1,16 @@
 """TSAD's settings: the paper's parameters and every option beyond the paper, each with its unit.
 
-`TSADConfig()` is the `full` variant (every extra on). `PAPER` holds the value of each extra that
-switches it off: `make_config("tsad", variant="paper")` is the paper's TSAD (section IV) exactly:
+`TSADConfig()` is the `full` variant: every option beyond the paper is a field of its `extras`
+(`TSADExtras`), all on by default; `TSADExtras.paper()` switches each off, and
+`make_config("tsad", variant="paper")` (`extras=TSADExtras.paper()`) is the paper's TSAD (section
+IV) exactly:
 theta* from GP3's search, sequential sub-MCTS run for a fixed number of iterations with the paper's
 reward (r_e floored at 0), value update, UCB, uniform random rollouts that only estimate values,
 extraction along the highest-value children, one sub-search planned per observation, no plan
 reuse. Parameters the paper does not state (iterations, c, alpha, d_max) keep the defaults below.
-`EXTRAS` lists the fields that are extras (docs/benchmark.md measures each); the extras that steer
-the closed loop are the run's `episode` section (`EPISODE_VARIANTS`).
+`EXTRAS` names the extras (docs/benchmark.md measures each; a config file sets them under
+`planner.extras`); the extras that steer the closed loop are the run's `episode` section
+(`EPISODE_VARIANTS`).
 """
 
 from __future__ import annotations
@@ -16,40 +19,14 @@ import dataclasses as dc
 
 
 @dc.dataclass
-class TSADConfig:
-    """Every constant of TSAD (paper values where it gives them)."""
+class TSADExtras:
+    """TSAD's options beyond the paper, each on (`full`) by default; `paper()` switches all off."""
 
-    #: sub-MCTS iterations per sub-search (docs/design.md gives the measurement behind 120)
-    iterations: int = 120
     #: iterations a sub-search may use while it has found no terminal state (extra: the search is
     #: extended past `iterations`; None is the paper's fixed number, `iterations`)
     max_iterations: int | None = 300
-    exploration: float = 0.3  #: c, UCB exploration coefficient (dimensionless)
-    step_penalty: float = 0.1  #: alpha, value lost per action (dimensionless)
-    max_depth: int = 4  #: d_max, actions per sub-search (tree plus rollout)
-    w_o: float = 0.5  #: weight of r_o (new obstacle penalty)
-    w_e: float = 0.3  #: weight of r_e (empty cells)
-    empty_gain: float = 0.1  #: r_e gained per extra empty grid cell
-    empty_cap: float = 1.0  #: largest r_e
-    empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
     widening: float | None = 3.0  #: children <= widening * sqrt(N(s)); None: expand all first
-    max_sub_searches: int = 12  #: sub-MCTS runs before giving up
-    #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
-    #: search, so the same seed gives the same plan on any machine (held-out realistic rows,
-    #: 2026-12-04: 0.7-2.4 ms an iteration on the geometric model, 4-9 ms on the network, two
-    #: bench processes on 2 cores; a five-blocker scene needs about 9,000 for a first plan)
-    iteration_budget: int = 20_000
-    #: s, wall-clock safety stop of one plan_tsad call: the counts above end a search; a call the
-    #: clock stops is a failure (`Plan.timed_out`, "timed out: ..."), never the plan it had so far
-    safety_stop_s: float = 300.0
-    use_ro: bool = True  #: ablation: False drops r_o ("w/o r_o")
-    use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
-    max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
     angle_fallbacks: int = 6  #: next-ranked angles tried when theta* yields no complete plan
-    #: relocations (object, x, y) that motion planning rejected; the closed loop adds to it and
-    #: plans again, and no action of the plan is one of them (at any depth, not only the first)
-    #: (a run-time field: a config file leaves it empty)
-    excluded_actions: list[tuple[str, float, float]] = dc.field(default_factory=list)
     #: probability that a rollout step moves a relevant object (a member of R_{theta*,s} or an
     #: object blocking a member along theta*) instead of any object; 0 is the paper's uniform
     #: random policy. Expansion also tries relevant objects' actions first when this is > 0.
@@ -63,8 +40,6 @@ class TSADConfig:
     #: complete plans collected (each from a fresh sequential search) before the shortest is
     #: returned; 1 returns the first plan found, as the paper does
     complete_plans: int = 3
-    #: sub-MCTS iterations allowed after the first complete plan for finding shorter ones
-    improve_iterations: int = 2_000
     #: terminal states of a sub-search tried, best first, before the search backs up further
     #: when a later sub-search finds no terminal state (depth-first backtracking over the
     #: sequence); 1 keeps the extracted one only, as the paper does; a myopic first sub-search
@@ -98,20 +73,62 @@ class TSADConfig:
     #: budget is spent; False searches anyway, as the paper does
     fail_fast: bool = True
 
+    @classmethod
+    def paper(cls) -> TSADExtras:
+        """Every extra off: the paper's algorithm."""
+        return cls(max_iterations=None, widening=None, restarts=1, angle_fallbacks=0,
+                   rollout_bias=0.0, shorten=False, complete_plans=1, backtrack_width=1,
+                   fast_rollouts=False, angle_search="gp3", keep_rollout_paths=False,
+                   terminal_extraction=False, negative_empty_reward=False, fail_fast=False)
 
-#: the paper's value of every extra: each switches one option beyond the paper off
-PAPER: dict[str, object] = {
-    "max_iterations": None, "widening": None, "restarts": 1, "angle_fallbacks": 0,
-    "rollout_bias": 0.0, "shorten": False, "complete_plans": 1, "backtrack_width": 1,
-    "fast_rollouts": False, "angle_search": "gp3", "keep_rollout_paths": False,
-    "terminal_extraction": False, "negative_empty_reward": False, "fail_fast": False,
-}
 
-#: the extras, by field name (the keys of `PAPER`)
-EXTRAS: tuple[str, ...] = tuple(PAPER)
+#: the extras, by field name of `TSADExtras`
+EXTRAS: tuple[str, ...] = tuple(f.name for f in dc.fields(TSADExtras))
 
-#: TSAD's variants: name -> config overrides
-VARIANTS: dict[str, dict[str, object]] = {"full": {}, "paper": PAPER}
+
+@dc.dataclass
+class TSADConfig:
+    """Every constant of TSAD (paper values where it gives them) and its extras."""
+
+    #: sub-MCTS iterations per sub-search (docs/design.md gives the measurement behind 120)
+    iterations: int = 120
+    exploration: float = 0.3  #: c, UCB exploration coefficient (dimensionless)
+    step_penalty: float = 0.1  #: alpha, value lost per action (dimensionless)
+    max_depth: int = 4  #: d_max, actions per sub-search (tree plus rollout)
+    w_o: float = 0.5  #: weight of r_o (new obstacle penalty)
+    w_e: float = 0.3  #: weight of r_e (empty cells)
+    empty_gain: float = 0.1  #: r_e gained per extra empty grid cell
+    empty_cap: float = 1.0  #: largest r_e
+    empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
+    max_sub_searches: int = 12  #: sub-MCTS runs before giving up
+    #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
+    #: search, so the same seed gives the same plan on any machine (held-out realistic rows,
+    #: 2026-12-04: 0.7-2.4 ms an iteration on the geometric model, 4-9 ms on the network, two
+    #: bench processes on 2 cores; a five-blocker scene needs about 9,000 for a first plan)
+    iteration_budget: int = 20_000
+    #: s, wall-clock safety stop of one plan_tsad call: the counts above end a search; a call the
+    #: clock stops is a failure (`Plan.timed_out`, "timed out: ..."), never the plan it had so far
+    safety_stop_s: float = 300.0
+    use_ro: bool = True  #: ablation: False drops r_o ("w/o r_o")
+    use_re: bool = True  #: ablation: False drops r_e ("w/o r_e")
+    max_removals: int = 8  #: optimal_angle: longest monotone removal sequence considered
+    #: relocations (object, x, y) that motion planning rejected; the closed loop adds to it and
+    #: plans again, and no action of the plan is one of them (at any depth, not only the first)
+    #: (a run-time field: a config file leaves it empty)
+    excluded_actions: list[tuple[str, float, float]] = dc.field(default_factory=list)
+    #: sub-MCTS iterations allowed after the first complete plan for finding shorter ones
+    improve_iterations: int = 2_000
+    #: the options beyond the paper (`TSADExtras.paper()` switches every one off)
+    extras: TSADExtras = dc.field(default_factory=TSADExtras)
+
+
+def with_extras(config: TSADConfig, **changes: object) -> TSADConfig:
+    """`config` with the named extras changed (the others, and `config`, unchanged)."""
+    return dc.replace(config, extras=dc.replace(config.extras, **changes))
+
+
+#: TSAD's variants: name -> config overrides (`make_config` copies them)
+VARIANTS: dict[str, dict[str, object]] = {"full": {}, "paper": {"extras": TSADExtras.paper()}}
 
 #: TSAD's extras that steer the closed loop, not the search: fields of the run's `episode` section
 #: (`execution.episode.EpisodeConfig`) whose defaults, the paper's, switch them off. `full` sets

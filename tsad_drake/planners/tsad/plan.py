@@ -11,8 +11,8 @@ V(s) = max[R(s), max_child V(s') - alpha] with R(s) = r_t + w_o r_o + w_e r_e, a
 the plan along the highest-value children. theta_pick and theta_place come from the feasibility
 model (`actions.py`); next states from the point-cloud simulation.
 
-Beyond the paper (each a `TSADConfig` field; see its comments; `config.PAPER` switches every
-one off): a complete plan is shortened by dropping or merging actions while
+Beyond the paper (each a field of `TSADConfig.extras`; see its comments; `TSADExtras.paper()`
+switches every one off): a complete plan is shortened by dropping or merging actions while
 `plan_check.replay_plan` still accepts it (and split into sub-searches afresh), the shortest of
 `complete_plans` complete plans (found within `improve_iterations` of the first) is returned, a
 sub-search that finds no terminal state makes the search back up to the previous sub-search's
@@ -105,11 +105,11 @@ def optimal_angle(state: PlanningState, feasibility: FeasibilityModel, workspace
 
 def choose_theta_star(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
                config: TSADConfig, rng: np.random.Generator, stats: dict) -> float | None:
-    """TSAD's stage 1 by `config.angle_search`: GP3's order search or the greedy ranking."""
-    if config.angle_search == "gp3":
+    """TSAD's stage 1 by `config.extras.angle_search`: GP3's order search or the greedy ranking."""
+    if config.extras.angle_search == "gp3":
         return gp3_optimal_angle(state, feasibility, workspace, rng=rng, stats=stats)[0]
-    if config.angle_search != "greedy":
-        raise ValueError(f"angle_search must be 'greedy' or 'gp3', not {config.angle_search!r}")
+    if config.extras.angle_search != "greedy":
+        raise ValueError(f"angle_search must be 'greedy' or 'gp3', not {config.extras.angle_search!r}")
     return optimal_angle(state, feasibility, workspace, config.max_removals)
 
 
@@ -133,7 +133,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     pick_now = choose_theta_pick(feasibility, state, t, workspace, 0.0)
     if pick_now is not None:
         return result(pick_now, [], True, rearrangement_set_sizes=[0])
-    if config.fail_fast:
+    if config.extras.fail_fast:
         why = unsolvable_reason(state, feasibility)
         if why:
             extras["fail_fast"] += 1
@@ -144,14 +144,14 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         return timed_out_plan(name, budget, {**angle_stats, "extras_used": extras})
     if first is None:
         return result(None, [], False, "target cannot be grasped at any approach angle"
-                      if config.angle_search == "greedy" else "GP3 found no retrieval angle")
+                      if config.extras.angle_search == "greedy" else "GP3 found no retrieval angle")
     candidates = [first]
-    if config.angle_fallbacks > 0:
+    if config.extras.angle_fallbacks > 0:
         ranked = ranked_angles(state, feasibility, workspace, config.max_removals)
-        candidates += [theta for theta in ranked if theta != first][:config.angle_fallbacks]
+        candidates += [theta for theta in ranked if theta != first][:config.extras.angle_fallbacks]
     best = None  #: the failed attempt that got furthest
     found: list[Plan] = []  #: complete plans, shortened
-    for attempt in range(max(config.restarts, 1) + config.complete_plans - 1):
+    for attempt in range(max(config.extras.restarts, 1) + config.extras.complete_plans - 1):
         for j, angle in enumerate(candidates):
             if attempt > 0:
                 extras["complete_plans" if found else "restarts"] += 1
@@ -159,7 +159,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
             plan = _sequential_sub_search(state, feasibility, workspace, config, rng, angle,
                                           budget, result, extras)
             if plan.success:
-                if config.shorten:
+                if config.extras.shorten:
                     searched = len(plan.actions)
                     plan.actions = shorten_plan(state, plan.actions, angle, feasibility,
                                                 workspace, frozenset(config.excluded_actions))
@@ -174,7 +174,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
                 best = plan
             if budget.exhausted():
                 break
-        if len(found) >= config.complete_plans or budget.exhausted():
+        if len(found) >= config.extras.complete_plans or budget.exhausted():
             break
     if budget.timed_out:
         return timed_out_plan(name, budget, {**angle_stats, "iterations_total": budget.iterations,
@@ -195,7 +195,7 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
     """Stage 2 of TSAD for one retrieval angle: sub-MCTS after sub-MCTS until R is empty.
 
     When a sub-search finds no terminal state, the search backs up to the previous sub-search
-    and continues from its next-best terminal state (`TSADConfig.backtrack_width`), depth first;
+    and continues from its next-best terminal state (`TSADExtras.backtrack_width`), depth first;
     the furthest failed attempt is returned when every branch fails.
     """
     t = state.target_index
@@ -223,7 +223,7 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
         if sub >= config.max_sub_searches:
             fail(actions, sizes, "sub-search limit reached")
             return None
-        if config.fail_fast and sub > 0:  # a dead end the sub-searches so far walked into
+        if config.extras.fail_fast and sub > 0:  # a dead end the sub-searches so far walked into
             why = unsolvable_reason(current, feasibility)
             if why:
                 extras["fail_fast"] += 1
@@ -235,7 +235,7 @@ def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
         extras.update(search.extras)
         iterations.append(search.iterations)
         nodes.append(search.nodes)
-        branches = search.alternatives(max(config.backtrack_width, 1))
+        branches = search.alternatives(max(config.extras.backtrack_width, 1))
         if not branches:
             why = "search budget spent" if budget.exhausted() else "no terminal state found"
             fail(actions, sizes, f"sub-search {sub}: {why}")

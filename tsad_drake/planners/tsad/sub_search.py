@@ -89,8 +89,8 @@ class SubSearch:
         #: how often each option beyond the paper changed what this search did, by
         #: `TSADConfig` field name (`planners.tsad.config.EXTRAS`); the paper variant leaves it empty
         self.extras: Counter[str] = Counter()
-        #: the model rollouts draw their actions with (see `TSADConfig.fast_rollouts`)
-        self.rollout_model = (feasibility.rollout_model() if config.fast_rollouts
+        #: the model rollouts draw their actions with (see `TSADExtras.fast_rollouts`)
+        self.rollout_model = (feasibility.rollout_model() if config.extras.fast_rollouts
                               else feasibility)
         self.excluded = excluded  #: action keys (`relocation_key`) not allowed anywhere
         self.k = theta_index
@@ -128,7 +128,7 @@ class SubSearch:
         if cfg.use_re:
             gain = cfg.empty_gain * (self.empty_cells(state) - self.reference_empty)
             if gain < 0:
-                if not cfg.negative_empty_reward:
+                if not cfg.extras.negative_empty_reward:
                     gain = 0.0
                 else:
                     self.extras["negative_empty_reward"] += 1
@@ -173,7 +173,7 @@ class SubSearch:
                               if relocation_key(state.objects[i].name, *cells[c])
                               not in self.excluded]
             candidates = [candidates[j] for j in self.rng.permutation(len(candidates))]
-            if self.config.rollout_bias > 0:
+            if self.config.extras.rollout_bias > 0:
                 self.extras["rollout_bias"] += 1
                 relevant = set(self.relevant(state))
                 candidates.sort(key=lambda ic: ic[0] in relevant)
@@ -184,7 +184,7 @@ class SubSearch:
     def can_expand(self, node: Node) -> bool:
         if self.actions(node).peek() is None:
             return False
-        w = self.config.widening
+        w = self.config.extras.widening
         if w is None or len(node.children) < max(1.0, w * math.sqrt(node.visits)):
             return True
         self.extras["widening"] += 1
@@ -210,7 +210,7 @@ class SubSearch:
             self.extras["fast_rollouts"] += 1
         for step in range(1, cfg.max_depth - node.depth + 1):
             action = None
-            if cfg.rollout_bias > 0 and self.rng.random() < cfg.rollout_bias:
+            if cfg.extras.rollout_bias > 0 and self.rng.random() < cfg.extras.rollout_bias:
                 self.extras["rollout_bias"] += 1
                 action = random_action(model, state, self.workspace, self.rng,
                                        self.theta, among=self.relevant(state, model))
@@ -223,7 +223,7 @@ class SubSearch:
             reward, terminal = self.reward(state, rollout=True)
             best = max(best, reward - cfg.step_penalty * step)
             if terminal:
-                if not cfg.keep_rollout_paths:
+                if not cfg.extras.keep_rollout_paths:
                     break  # the paper: the rollout only estimates the leaf's value
                 self.extras["keep_rollout_paths"] += 1
                 if model is not self.feasibility:
@@ -299,7 +299,7 @@ class SubSearch:
         """Search until this sub-search's iterations (extended while nothing terminal is found)
         or the whole call's `budget` run out; `extract` / `alternatives` read the result."""
         cfg = self.config
-        most = cfg.iterations if cfg.max_iterations is None else cfg.max_iterations
+        most = cfg.iterations if cfg.extras.max_iterations is None else cfg.extras.max_iterations
         while not budget.exhausted():
             if self.iterations >= most:
                 break
@@ -326,7 +326,7 @@ class SubSearch:
             if not node.children:
                 return None
             best = max(node.children, key=lambda ch: ch.value)
-            if self.config.terminal_extraction:
+            if self.config.extras.terminal_extraction:
                 chosen = max((ch for ch in node.children if ch.has_terminal),
                              key=lambda ch: ch.value)
                 if chosen is not best:
