@@ -1,6 +1,10 @@
 """The package's import layers, and every import that runs up against them.
 
     python tools/structure.py          # the layers, which unit imports which; exit 1 on an upward import
+    python tools/structure.py --modules  # every module with its layer and docstring's first line
+
+The module table is docs/design.md's "Every module" section (tests/test_structure.py keeps the two
+equal: after adding or renaming a module, paste the `--modules` output there).
 
 A unit is a subpackage (`planning`, `planners`, `bench`, ...) or a top-level module (`pipeline`,
 `run_config`, ...). Units sit in layers, lowest first (`LAYERS`); a unit may import units of its
@@ -91,7 +95,31 @@ def violations(package: Path = PACKAGE) -> list[str]:
     return problems
 
 
+def summary(path: Path) -> str:
+    """The first sentence of a module's docstring ("-" when it has none)."""
+    doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or "-"
+    paragraph = " ".join(doc.strip().split("\n\n")[0].split())
+    return paragraph.split(". ")[0].removesuffix(".").replace("|", "/")
+
+
+def module_table(package: Path = PACKAGE) -> list[str]:
+    """Markdown table rows: every module of the package (packages by their `__init__`), its layer
+    and what it holds, in path order."""
+    rows = ["| module | layer | what it holds |", "|---|---|---|"]
+    for path in sorted(package.rglob("*.py")):
+        parts = path.relative_to(package.parent).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        name = ".".join(parts)
+        layer = LAYER_OF.get(unit_of(name), "?")
+        rows.append(f"| `{name}` | {layer} | {summary(path)} |")
+    return rows
+
+
 def main() -> int:
+    if sys.argv[1:] == ["--modules"]:
+        print("\n".join(module_table()))
+        return 0
     found = imports()
     for k, units in enumerate(LAYERS):
         print(f"layer {k}:")

@@ -1,1 +1,1 @@
-"""Benchmarks: episodes, metrics, tables, plots, timing scripts."""
+"""Benchmarks: episodes on a process pool or Ray, metrics, tables, plots, config sweeps."""

@@ -1,4 +1,4 @@
-"""`tsad` command line: render, scene, plan, bench, report, dataset, train, net-eval, net-calibrate."""
+"""`tsad` command line: render, scene, plan, verify, bench, sweep, report, config, the network's."""
 
 from tsad_drake.cli.main import main
 
