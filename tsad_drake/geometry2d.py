@@ -242,15 +242,30 @@ def edge_normals(polys: np.ndarray) -> np.ndarray:
     return np.where(length > 1e-12, normals / np.maximum(length, 1e-12), 0.0)
 
 
-def convex_polygons_overlap_pairs(a: np.ndarray, b: np.ndarray, margin: float = 0.0) -> np.ndarray:
+def pad_edge_normals(normals: list[np.ndarray], k: int) -> np.ndarray:
+    """(N, k, 2) what `edge_normals(pad_polygons(polygons))` gives, from each polygon's own
+    `edge_normals` (bit for bit: the same edges; the padding's zero-length edges get zero normals
+    and the closing edge comes last), for callers that keep each polygon's normals."""
+    out = np.zeros((len(normals), k, 2))
+    for i, n in enumerate(normals):
+        out[i, :len(n) - 1] = n[:-1]
+        out[i, k - 1] = n[-1]
+    return out
+
+
+def convex_polygons_overlap_pairs(a: np.ndarray, b: np.ndarray, margin: float = 0.0,
+                                  normals_a: np.ndarray | None = None,
+                                  normals_b: np.ndarray | None = None) -> np.ndarray:
     """Batched separating-axis test: (P,) True where polygon a[p] meets b[p] (or is within margin).
 
     a: (P, Ka, 2), b: (P, Kb, 2), both counter-clockwise convex and padded as by `pad_polygons`.
     With margin 0 this is exactly `convex_polygons_overlap`; with a margin it is conservative at
     corners (it may report contact for polygons slightly farther apart than `margin`).
+    `normals_a` / `normals_b`: their `edge_normals` when the caller keeps them (the same answer).
     """
     separated = np.zeros(a.shape[0], dtype=bool)
-    for normals in (edge_normals(a), edge_normals(b)):  # (P, K, 2)
+    for normals in (edge_normals(a) if normals_a is None else normals_a,
+                    edge_normals(b) if normals_b is None else normals_b):  # (P, K, 2)
         axes = normals.transpose(0, 2, 1)
         pa = a @ axes  # (P, Va, K)
         pb = b @ axes
