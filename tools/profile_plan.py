@@ -3,6 +3,7 @@ planner), timing the observation and the search, optionally under cProfile.
 
     python tools/profile_plan.py --scenario 2 --seeds 1000-1004 [--feasibility net]
         [--sensor realistic] [--frames 8] [--profile out.prof] [--set planner.field=value]
+        [--threads 1]
 
 Prints one line per seed: observation seconds, planning seconds, iterations, network queries,
 actions, success; the `--profile` file is read with `python -m pstats`.
@@ -21,6 +22,7 @@ from tsad_drake.pipeline import RaycastObserver, make_feasibility
 from tsad_drake.planners.tsad.config import with_extras
 from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.planning.state import make_workspace, state_from_perception
+from tsad_drake.runtime import pin_threads
 from tsad_drake.scenes import generate_scenario
 
 
@@ -41,7 +43,10 @@ def main() -> None:
     parser.add_argument("--profile", default="")
     parser.add_argument("--set", action="append", default=[],
                         help="planner field=value (a TSAD extra: extras.field=value)")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="torch and BLAS threads, as the commands' --threads (default 1)")
     args = parser.parse_args()
+    pin_threads(args.threads)
     overrides, extras = {}, {}
     for item in args.set:
         key, _, value = item.partition("=")

@@ -18,7 +18,7 @@ from tsad_drake.planning.pointcloud_sim import (
     moved_polygon,
     simulate_pick_place,
 )
-from tsad_drake.planning.state import completed_footprint_points, occupied_cells
+from tsad_drake.planning.state import moved_completed_points, occupied_cells
 from tsad_drake.planning.types import Action, Plan, PlanningState, PlanObject, Workspace
 
 #: m, where a removed object is parked: far in front of the shelf, out of every corridor
@@ -108,7 +108,7 @@ class CellScorer:
         key = (obj.name, obj.pose)
         if key not in self._masks:
             ws = self.workspace
-            self._masks[key] = occupied_cells(completed_footprint_points(obj), ws.cell_centres,
+            self._masks[key] = occupied_cells(moved_completed_points(obj), ws.cell_centres,
                                               ws.min_empty_distance)
         return self._masks[key]
 

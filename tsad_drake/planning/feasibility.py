@@ -57,11 +57,12 @@ class ObjectGeometry:
     widths: np.ndarray  #: (A,) m, width across the gripper per approach angle
     outer: float = 0.0  #: m, largest distance from the centre to the footprint
     inner: float = 0.0  #: m, radius of the largest centred disc inside the footprint
-    #: identity of the geometry for the model's pair caches (equal keys, equal geometry)
-    key: tuple = ()
+    #: identity of the geometry for the model's pair caches (equal keys, equal geometry): a
+    #: small int the model hands out per distinct (name, pose, origin, points), cheap to hash
+    key: int = -1
     #: identity of the footprint's shape in its own frame (equal keys: the same polygon about
     #: the centre, wherever the object stands)
-    shape_key: tuple = ()
+    shape_key: int = -1
     corridors: np.ndarray | None = None  #: (A, 4, 2) approach corridors to `centre`
     wall_clear: np.ndarray | None = None  #: (A,) those corridors miss both side walls
     corridor_normals: np.ndarray | None = None  #: (A, 4, 2) the corridors' edge normals
@@ -131,6 +132,52 @@ class StateGeometry:
         self.model = model
         self._object_hits: np.ndarray | None = None
         self._cell_hits: np.ndarray | None = None
+        self._cell_hit_counts: np.ndarray | None = None
+        self._blockers: dict[int, list[frozenset[int]]] = {}
+        self._near: np.ndarray | None = None
+        self._surely: dict[int, np.ndarray] = {}
+        self._keys: list[int] = [o.key for o in objects]
+        self._others_keys: dict[int, frozenset[int]] = {}
+
+    def blockers(self, index: int) -> list[frozenset[int]]:
+        """Per approach angle, the plan objects the corridor to plan object `index` touches."""
+        found = self._blockers.get(index)
+        if found is None:
+            hits = self.object_hits[index, :, :self.num_plan_objects]
+            found = self._blockers[index] = [frozenset(np.nonzero(row)[0].tolist())
+                                             for row in hits]
+        return found
+
+    def others_keys(self, index: int) -> frozenset[int]:
+        """The geometry keys of every object but `index` (plan objects and obstacles)."""
+        keys = self._others_keys.get(index)
+        if keys is None:
+            keys = self._others_keys[index] = frozenset(self._keys[:index] + self._keys[index + 1:])
+        return keys
+
+    def clear_cells(self, index: int) -> np.ndarray:
+        """(C, A) the corridor to cell c at angle a misses the walls and every object but `index`."""
+        if self._cell_hit_counts is None:
+            self._cell_hit_counts = self.cell_hits.sum(axis=2)
+        own = self.cell_hits[:, :, index]
+        return self.model.cell_corridors.wall_clear & (self._cell_hit_counts == own)
+
+    def surely_blocked_cells(self, index: int, inner: float, gap: float) -> np.ndarray:
+        """(C,) a cell whose centre is closer to some other object's centre than `inner` plus
+        that object's inner radius plus `gap`: a footprint of inner radius `inner` on it meets
+        that object for sure (cached per index: `inner` is that object's, `gap` the model's)."""
+        found = self._surely.get(index)
+        if found is not None:
+            return found
+        if self._near is None:  # (C, J) distance of each cell centre to each object's centre
+            centres = np.array([o.centre for o in self.objects])
+            self._near = np.linalg.norm(self.model.workspace.cell_centres[:, None, :]
+                                        - centres[None, :, :], axis=2)
+        others = [j for j in range(len(self.objects)) if j != index]
+        other_inner = np.array([self.objects[j].inner for j in others])
+        found = self._surely[index] = np.any(
+            self._near[:, others] < inner + other_inner[None, :] + gap, axis=1)
+        return found
 
     @property
     def object_hits(self) -> np.ndarray:
@@ -182,8 +229,8 @@ class FootprintFeasibility(FeasibilityModel):
         self._states: dict[tuple, StateGeometry] = {}
         self._objects: dict[tuple, ObjectGeometry] = {}
         #: (corridor owner key, obstacle key) -> (A,) the corridor to the owner hits the obstacle
-        self._pairs: dict[tuple, np.ndarray] = {}
-        self._cell_columns: dict[tuple, np.ndarray] = {}  #: obstacle key -> (C, A) cell hits
+        self._pairs: dict[tuple[int, int], np.ndarray] = {}
+        self._cell_columns: dict[int, np.ndarray] = {}  #: obstacle key -> (C, A) cell hits
         #: (mover shape key, rotation, obstacle key) -> (C,) the turned mover at each cell meets it
         self._placements: dict[tuple, np.ndarray] = {}
         #: (shape key, rotation) -> (C, K, 2) the turned shape on every cell, (C,) on the floor,
@@ -194,6 +241,13 @@ class FootprintFeasibility(FeasibilityModel):
         #: that differ only in the mover's place (siblings moving one object, a rollout moving it
         #: twice) share it; 40% of the calls on scenario 1 (ideal sensing, seeds 1000-1005)
         self._place_answers: dict[tuple, np.ndarray] = {}
+        #: (mover shape key, rotation, the other geometries' keys) -> `_placement_hits`' answer
+        self._placement_unions: dict[tuple, np.ndarray] = {}
+        self._orders: dict[float, np.ndarray] = {}  #: theta_pick -> `approach_order`
+        #: identity tuple -> the int `ObjectGeometry.key` / `shape_key` it was given (a new
+        #: number for every new identity, also after the caches are cleared)
+        self._ids: dict[tuple, int] = {}
+        self._next_id = 0
         thetas = workspace.approach_angles
         cells = workspace.cell_centres
         centres = np.repeat(cells, len(thetas), axis=0)
@@ -219,10 +273,24 @@ class FootprintFeasibility(FeasibilityModel):
                 corridors, np.broadcast_to(wall, (len(corridors),) + wall.shape))
         return clear
 
+    def _approach_order(self, prefer: float) -> np.ndarray:
+        """`approach_order` of the workspace's angles, memoised per preferred angle."""
+        order = self._orders.get(prefer)
+        if order is None:
+            order = self._orders[prefer] = approach_order(self.workspace.approach_angles, prefer)
+        return order
+
+    def _id(self, identity: tuple) -> int:
+        number = self._ids.get(identity)
+        if number is None:
+            number = self._ids[identity] = self._next_id
+            self._next_id += 1
+        return number
+
     def prepared(self, geom: ObjectGeometry, key: tuple, shape_key: tuple) -> ObjectGeometry:
         """`geom` with its cache keys, its approach corridors and their wall test filled in."""
         thetas = self.workspace.approach_angles
-        geom.key, geom.shape_key = key, shape_key
+        geom.key, geom.shape_key = self._id(key), self._id(("shape",) + shape_key)
         geom.corridors = corridor_polygons(np.repeat(geom.centre[None], len(thetas), axis=0),
                                            thetas, self.workspace)
         geom.wall_clear = self._walls_clear(geom.corridors)
@@ -242,7 +310,8 @@ class FootprintFeasibility(FeasibilityModel):
 
     def _clear_caches(self) -> None:
         for cache in (self._states, self._objects, self._pairs, self._cell_columns,
-                      self._placements, self._turned_shapes, self._place_answers):
+                      self._placements, self._turned_shapes, self._place_answers, self._ids,
+                      self._placement_unions):
             cache.clear()
 
     def geometry(self, state: PlanningState) -> StateGeometry:
@@ -250,7 +319,8 @@ class FootprintFeasibility(FeasibilityModel):
         key = state.key()
         geom = self._states.get(key)
         if geom is None:
-            if max(len(self._states), len(self._placements), len(self._place_answers)) > CACHE_LIMIT:
+            if max(len(self._states), len(self._placements), len(self._place_answers),
+                   len(self._placement_unions)) > CACHE_LIMIT:
                 self._clear_caches()
             objects = [self._object_entry(o) for o in state.objects]
             geom = StateGeometry(objects + self.static_obstacles(state), len(objects), self)
@@ -301,9 +371,10 @@ class FootprintFeasibility(FeasibilityModel):
     # -- FeasibilityModel ----------------------------------------------------------------------
     def blockers(self, state: PlanningState, index: int) -> list[frozenset[int]]:
         """Per approach angle, the plan objects the corridor to object `index` touches."""
-        g = self.geometry(state)
-        hits = g.object_hits[index, :, :g.num_plan_objects]
-        return [frozenset(np.nonzero(row)[0].tolist()) for row in hits]
+        return self.geometry(state).blockers(index)
+
+    def blockers_at(self, state: PlanningState, index: int, k: int) -> frozenset[int]:
+        return self.geometry(state).blockers(index)[k]
 
     def reachable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) the object fits the stroke and its corridor misses the walls (ignoring objects)."""
@@ -350,11 +421,20 @@ class FootprintFeasibility(FeasibilityModel):
             self._turned_shapes[key] = entry
         return entry
 
-    def _placement_hits(self, me: ObjectGeometry, rotation: float,
-                        others: list[ObjectGeometry]) -> np.ndarray:
+    def _placement_hits(self, me: ObjectGeometry, rotation: float, others: list[ObjectGeometry],
+                        others_key: frozenset[int]) -> np.ndarray:
         """(C,) `me` turned by `rotation` on a cell (inside the workspace) comes within
-        `placement_gap` of one of `others`; cached per (shape, rotation, other), the missing
-        pairs tested in one batch."""
+        `placement_gap` of one of `others` (whose keys are `others_key`); cached per (shape,
+        rotation, others) and per (shape, rotation, other), the missing pairs tested in one
+        batch."""
+        union_key = (me.shape_key, rotation, others_key)
+        hits = self._placement_unions.get(union_key)
+        if hits is None:
+            hits = self._placement_unions[union_key] = self._placement_union(me, rotation, others)
+        return hits
+
+    def _placement_union(self, me: ObjectGeometry, rotation: float,
+                         others: list[ObjectGeometry]) -> np.ndarray:
         polys, inside, poly_normals = self._turned(me, rotation)
         cells, gap = self.workspace.cell_centres, self.placement_gap
         hits = np.zeros(len(cells), dtype=bool)
@@ -395,30 +475,27 @@ class FootprintFeasibility(FeasibilityModel):
         """
         g = self.geometry(state)
         me = g.objects[index]
-        others = [o for j, o in enumerate(g.objects) if j != index]
-        memo_key = (me.shape_key, round(float(theta_pick), 9), frozenset(o.key for o in others))
+        others_key = g.others_keys(index)
+        memo_key = (me.shape_key, round(float(theta_pick), 9), others_key)
         known = self._place_answers.get(memo_key)
         if known is not None:
             return known
+        others = [o for j, o in enumerate(g.objects) if j != index]
         ws, gap = self.workspace, self.placement_gap
         thetas, cells = ws.approach_angles, ws.cell_centres
-        clear = self.cell_corridors.wall_clear & ~g.cell_hits[:, :, [
-            j for j in range(len(g.objects)) if j != index]].any(axis=2)
+        clear = g.clear_cells(index)
         result = np.full(len(cells), np.nan)
         unresolved = np.ones(len(cells), dtype=bool)
         if others:
-            other_centres = np.array([o.centre for o in others])
-            other_inner = np.array([o.inner for o in others])
-            dist = np.linalg.norm(cells[:, None, :] - other_centres[None, :, :], axis=2)
-            unresolved &= ~np.any(dist < me.inner + other_inner[None, :] + gap, axis=1)
-        for k in approach_order(thetas, theta_pick):
+            unresolved &= ~g.surely_blocked_cells(index, me.inner, gap)
+        for k in self._approach_order(theta_pick):
             cand = unresolved & clear[:, k]
             if not cand.any():
                 continue
             rotation = round(float(thetas[k] - theta_pick), 9)
             ok = cand & self._turned(me, rotation)[1]
             if ok.any() and others:
-                ok &= ~self._placement_hits(me, rotation, others)
+                ok &= ~self._placement_hits(me, rotation, others, others_key)
             result[ok] = thetas[k]
             unresolved[ok] = False
             if not unresolved.any():

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tsad_drake.geometry2d import footprint_polygon, padded_outline, points_in_polygon
+from tsad_drake.geometry2d import footprint_polygon, padded_outline, points_in_polygon, rotation2d
 from tsad_drake.perception.types import PerceivedScene
 from tsad_drake.planning.types import PlanningState, PlanObject, Workspace
 from tsad_drake.scenario import Scenario
@@ -77,6 +77,11 @@ def completed_footprint_points(obj: PlanObject) -> np.ndarray:
     circumscribed polygon (the true footprints' own), whose vertices lie at the hull's support
     directions (`CIRCLE_VERTICES` = `HULL_DIRECTIONS`), so the reduced hull contains the circle.
     """
+    return np.concatenate([_seen_completed(obj), *_fitted_circle(obj)])
+
+
+def _seen_completed(obj: PlanObject) -> np.ndarray:
+    """`completed_footprint_points` without a cylinder's fitted circle."""
     xy = obj.points[:, :2]
     centre = np.array([obj.x, obj.y])
     parts = [xy, 2.0 * centre - xy]
@@ -84,9 +89,41 @@ def completed_footprint_points(obj: PlanObject) -> np.ndarray:
         inside = np.concatenate(parts)
         inside = inside[points_in_polygon(inside, obj.outline)]
         return np.concatenate([padded_outline(obj.outline, obj.uncertainty), inside])
-    if obj.shape == "cylinder" and obj.size:
-        parts.append(footprint_polygon("cylinder", obj.size, obj.x, obj.y, 0.0))
     return np.concatenate(parts)
+
+
+def _fitted_circle(obj: PlanObject) -> list[np.ndarray]:
+    """[the fitted circle's footprint polygon] for a cylinder without an outline, else []."""
+    if obj.outline is None and obj.shape == "cylinder" and obj.size:
+        return [footprint_polygon("cylinder", obj.size, obj.x, obj.y, 0.0)]
+    return []
+
+
+#: (name, origin, number of points, shape, size, uncertainty, has an outline) -> `_seen_completed`
+#: in the frame of the object as perceived (one perception of one object: its name, perceived
+#: pose and point count agree, as the keys of the search's caches do)
+_LOCAL_COMPLETED: dict[tuple, np.ndarray] = {}
+#: perceived objects kept before the memo is cleared
+LOCAL_COMPLETED_LIMIT = 20_000
+
+
+def moved_completed_points(obj: PlanObject) -> np.ndarray:
+    """`completed_footprint_points` of `obj`; for a moved object, its seen part worked out once
+    per perceived object and moved rigidly with it (the simulation moves the points, outline and
+    centre rigidly, so the reflections and the outline's inside move with them: equal up to
+    rounding), the fitted circle added at the current centre (its polygon does not turn)."""
+    if not obj.moved:
+        return completed_footprint_points(obj)
+    key = (obj.name, obj.origin, len(obj.points), obj.shape, obj.size, obj.uncertainty,
+           obj.outline is None)
+    turned = rotation2d(obj.yaw - obj.origin[2])
+    centre = np.array([obj.x, obj.y])
+    local = _LOCAL_COMPLETED.get(key)
+    if local is None:
+        if len(_LOCAL_COMPLETED) > LOCAL_COMPLETED_LIMIT:
+            _LOCAL_COMPLETED.clear()
+        local = _LOCAL_COMPLETED[key] = (_seen_completed(obj) - centre) @ turned
+    return np.concatenate([local @ turned.T + centre, *_fitted_circle(obj)])
 
 
 def occupied_cells(points_xy: np.ndarray, cell_centres: np.ndarray,
@@ -110,7 +147,7 @@ def empty_cell_count(state: PlanningState, workspace: Workspace) -> int:
     """epsilon_s: the number of grid cells with no (completed) object point within d_min."""
     occupied = np.zeros(len(workspace.cell_centres), dtype=bool)
     for obj in state.objects:
-        occupied |= occupied_cells(completed_footprint_points(obj), workspace.cell_centres,
+        occupied |= occupied_cells(moved_completed_points(obj), workspace.cell_centres,
                                    workspace.min_empty_distance)
     return int(len(occupied) - occupied.sum())
 

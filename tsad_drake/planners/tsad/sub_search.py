@@ -29,7 +29,7 @@ from tsad_drake.planning.plan_check import (
     relocation_key,
 )
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
-from tsad_drake.planning.state import completed_footprint_points, occupied_cells
+from tsad_drake.planning.state import moved_completed_points, occupied_cells
 from tsad_drake.planning.types import Action, PlanningState, Workspace
 
 
@@ -53,7 +53,7 @@ class EmptyCells:
             key = (obj.name, obj.pose, obj.origin, len(obj.points))
             cells = self._cache.get(key)
             if cells is None:
-                cells = occupied_cells(completed_footprint_points(obj), self.workspace.cell_centres,
+                cells = occupied_cells(moved_completed_points(obj), self.workspace.cell_centres,
                                        self.workspace.min_empty_distance)
                 self._cache[key] = cells
             occupied |= cells
