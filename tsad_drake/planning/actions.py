@@ -49,6 +49,9 @@ def object_actions(feasibility: FeasibilityModel, state: PlanningState, index: i
 _MOVE_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 #: entries one model's move table keeps before it is cleared
 MOVE_TABLE_LIMIT = 200_000
+#: [weak reference to the model asked last, its table]: a search asks one model ~10^5 times,
+#: and a `WeakKeyDictionary` lookup (a new weak reference per call) was 3% of a plan
+_LAST_TABLE: list = [None, None]
 
 
 def _move_entry(feasibility: FeasibilityModel, state: PlanningState, index: int,
@@ -56,9 +59,12 @@ def _move_entry(feasibility: FeasibilityModel, state: PlanningState, index: int,
     """The memo entry [pick angles, cell moves or None] of (state, object, prefer) for a model:
     states are immutable and the answers depend on nothing else, so every search node, rollout
     and round asking the same question shares one answer."""
-    table = _MOVE_TABLES.get(feasibility)
-    if table is None or len(table) > MOVE_TABLE_LIMIT:
-        table = _MOVE_TABLES[feasibility] = {}
+    last, table = _LAST_TABLE
+    if last is None or last() is not feasibility or len(table) > MOVE_TABLE_LIMIT:
+        table = _MOVE_TABLES.get(feasibility)
+        if table is None or len(table) > MOVE_TABLE_LIMIT:
+            table = _MOVE_TABLES[feasibility] = {}
+        _LAST_TABLE[:] = [weakref.ref(feasibility), table]
     key = (state.key(), index, round(float(prefer), 9))
     entry = table.get(key)
     if entry is None:

@@ -10,7 +10,11 @@ import time
 
 import numpy as np
 
-from tsad_drake.geometry2d import approach_corridor, convex_polygons_overlap
+from tsad_drake.geometry2d import (
+    approach_corridor,
+    convex_polygons_overlap_pairs,
+    edge_normals,
+)
 from tsad_drake.planning.interface import FeasibilityModel, approach_order
 from tsad_drake.planning.pointcloud_sim import (
     footprint_hull,
@@ -102,7 +106,8 @@ class CellScorer:
         self.workspace = workspace
         self._masks: dict[tuple, np.ndarray] = {}
         self._hulls: dict[str, tuple[np.ndarray, tuple]] = {}
-        self._corridors: dict[tuple, list[np.ndarray]] = {}
+        #: target (x, y) -> its approach corridors (A, 4, 2) and their edge normals
+        self._corridors: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     def mask(self, obj: PlanObject) -> np.ndarray:
         key = (obj.name, obj.pose)
@@ -141,7 +146,12 @@ class CellScorer:
         tkey = (target.x, target.y)
         if tkey not in self._corridors:
             ws = self.workspace
-            self._corridors[tkey] = [
+            corridors = np.array([
                 approach_corridor(target.x, target.y, th, ws.swept_half_width, ws.finger_reach)
-                for th in ws.approach_angles]
-        return sum(convex_polygons_overlap(c, poly) for c in self._corridors[tkey])
+                for th in ws.approach_angles])
+            self._corridors[tkey] = (corridors, edge_normals(corridors))
+        corridors, normals = self._corridors[tkey]
+        polys = np.broadcast_to(poly, (len(corridors),) + poly.shape)
+        poly_normals = np.broadcast_to(edge_normals(poly), polys.shape)
+        return int(np.count_nonzero(convex_polygons_overlap_pairs(
+            corridors, polys, normals_a=normals, normals_b=poly_normals)))

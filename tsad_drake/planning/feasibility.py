@@ -332,17 +332,20 @@ class FootprintFeasibility(FeasibilityModel):
         """(N, A, J) the corridor to owners[i] at angle a touches obstacles[j] (False for i == j),
         from the pair cache; the missing pairs are tested in one batch."""
         num_angles = len(self.workspace.approach_angles)
-        hits = np.zeros((len(owners), num_angles, len(obstacles)), dtype=bool)
-        missing = []
+        none = np.zeros(num_angles, dtype=bool)
+        keys = [o.key for o in obstacles]
+        get = self._pairs.get
+        rows, missing = [], []  # rows in (i, j) order, stacked once (not set one by one)
         for i, owner in enumerate(owners):
-            for j, obstacle in enumerate(obstacles):
-                if i == j:
-                    continue
-                row = self._pairs.get((owner.key, obstacle.key))
+            own = owner.key
+            for j, key in enumerate(keys):
+                row = none if i == j else get((own, key))
                 if row is None:
                     missing.append((i, j))
-                else:
-                    hits[i, :, j] = row
+                    row = none
+                rows.append(row)
+        hits = np.ascontiguousarray(np.array(rows, dtype=bool).reshape(
+            len(owners), len(obstacles), num_angles).transpose(0, 2, 1))
         if missing:
             thetas = self.workspace.approach_angles
             pair_owners = [owners[i] for i, _ in missing]
