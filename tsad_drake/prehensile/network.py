@@ -155,7 +155,7 @@ class SetAbstraction(nn.Module):
         groups = ball_query(xy, centres, self.radius, self.neighbours)  # (B, M, K)
         rel = (gather(xy, groups) - centres.unsqueeze(2)) / self.radius
         grouped = torch.cat([rel, gather(feats, groups)], dim=-1)  # (B, M, K, 2 + C)
-        return centres, self.mlp(grouped).max(dim=2).values
+        return centres, self.mlp(grouped).amax(dim=2)
 
 
 def interpolate(xy: torch.Tensor, centres: torch.Tensor, values: torch.Tensor) -> torch.Tensor:
@@ -218,7 +218,7 @@ class PrehensileNet(nn.Module):
                 num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
         c1, f1 = self.sa1(xy, feats)
         c2, f2 = self.sa2(c1, f1)
-        glob = self.global_mlp(torch.cat([c2, f2], dim=-1)).max(dim=1).values  # (B, G)
+        glob = self.global_mlp(torch.cat([c2, f2], dim=-1)).amax(dim=1)  # (B, G)
         local = torch.cat([xy, feats, interpolate(xy, c2, f2), interpolate(xy, c1, f1)], dim=-1)
         hidden = self.point_mlp(self.point_local(local) + self.point_global(glob).unsqueeze(1))
         pooled = segment_max(hidden, ids, num_objects)  # (B, S, H)
