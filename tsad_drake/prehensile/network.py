@@ -34,6 +34,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from tsad_drake.prehensile import kernels
+
 
 @dc.dataclass
 class NetConfig:
@@ -58,51 +60,25 @@ class NetConfig:
     raw_mlp: tuple[int, ...] = (32, 32)
 
 
+def _points(x: torch.Tensor) -> np.ndarray:
+    """x as the contiguous float32 array the kernels take (the coordinates carry no gradient)."""
+    return np.ascontiguousarray(x.detach().cpu().numpy(), dtype=np.float32)
+
+
 def farthest_point_sampling(xy: torch.Tensor, count: int) -> torch.Tensor:
-    """(B, count) indices of farthest point sampling of `xy` (B, N, D), starting at point 0.
-
-    The loop runs in NumPy on the (B, N, N) distance matrix: FPS is `count` sequential steps of
-    a few tiny operations, where torch's per-operation overhead made it 40% of a batch-1 forward
-    pass (NumPy: 5x faster at batch 1, 2x at 64). Ties go to the lowest index, as argmax does in
-    both libraries; the indices carry no gradient.
-    """
-    b, n, _ = xy.shape
-    with torch.no_grad():
-        pair = squared_distances(xy, xy).cpu().numpy().reshape(b * n, n)
-    rows = np.arange(b) * n
-    idx = np.zeros((count, b), dtype=np.int64)
-    dist = np.full((b, n), np.inf, dtype=pair.dtype)
-    farthest = np.zeros(b, dtype=np.int64)
-    for k in range(count):
-        idx[k] = farthest
-        np.minimum(dist, pair.take(rows + farthest, axis=0), out=dist)
-        farthest = dist.argmax(axis=1)
-    return torch.from_numpy(np.ascontiguousarray(idx.T)).to(xy.device)
-
-
-def squared_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    """(B, M, N) squared distances between a (B, M, D) and b (B, N, D).
-
-    |a|^2 + |b|^2 - 2 a.b with one batched matrix product: no (B, M, N, D) intermediate, which
-    made this the network's most expensive step on CPU."""
-    cross = torch.baddbmm((a * a).sum(-1, keepdim=True), a, b.transpose(1, 2), alpha=-2.0)
-    return (cross + (b * b).sum(-1).unsqueeze(1)).clamp_(min=0.0)
+    """(B, count) indices of farthest point sampling of `xy` (B, N, 2), starting at point 0; ties
+    go to the lowest index. A compiled loop (`kernels.farthest_point_sampling`): FPS is `count`
+    sequential steps, where torch's per-operation overhead made it a fifth of a forward pass."""
+    idx = kernels.farthest_point_sampling(_points(xy), count)
+    return torch.from_numpy(idx).to(xy.device)
 
 
 def ball_query(xy: torch.Tensor, centres: torch.Tensor, radius: float, count: int) -> torch.Tensor:
     """(B, M, count) indices of the first `count` points (in input order) within `radius` of each
     centre, as in PointNet++; unused slots repeat the first one (a centre is one of the points, so
-    every ball holds at least one). A cumulative count ranks the points inside each ball and one
-    scatter files them: no sort or top-k over all points."""
-    d2 = squared_distances(centres, xy)  # (B, M, N)
-    b, m, n = d2.shape
-    inside = d2 <= radius * radius
-    rank = inside.cumsum(-1) - 1
-    slot = torch.where(inside & (rank < count), rank, torch.full_like(rank, count))
-    out = torch.full((b, m, count + 1), n, dtype=torch.long, device=xy.device)
-    out.scatter_(2, slot, torch.arange(n, device=xy.device).expand(b, m, n))
-    out = out[..., :count]  # the extra slot collected the points that did not make it
-    return torch.where(out == n, out[..., :1], out)
+    every ball holds at least one). One compiled pass per centre (`kernels.ball_query`)."""
+    idx = kernels.ball_query(_points(xy), _points(centres), np.float32(radius * radius), count)
+    return torch.from_numpy(idx).to(xy.device)
 
 
 def gather(values: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
@@ -114,21 +90,6 @@ def gather(values: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
     offset = torch.arange(b, device=idx.device).mul_(n).view(b, *([1] * (idx.dim() - 1)))
     rows = (idx + offset).reshape(-1)
     return values.reshape(b * n, c).index_select(0, rows).reshape(*idx.shape, c)
-
-
-def nearest3(d2: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """(values, indices) of the three smallest entries along the last axis of `d2`, ascending:
-    what `topk(3, largest=False)` gives, by three min passes (faster on CPU for the short rows
-    here; ties go to the lowest index)."""
-    k = min(3, d2.shape[-1])
-    work = d2.clone()
-    values, indices = [], []
-    for _ in range(k):
-        v, i = work.min(dim=-1)
-        values.append(v)
-        indices.append(i)
-        work.scatter_(-1, i.unsqueeze(-1), float("inf"))
-    return torch.stack(values, -1), torch.stack(indices, -1)
 
 
 def mlp(sizes: list[int], norm: bool = True) -> nn.Sequential:
@@ -159,9 +120,11 @@ class SetAbstraction(nn.Module):
 
 
 def interpolate(xy: torch.Tensor, centres: torch.Tensor, values: torch.Tensor) -> torch.Tensor:
-    """values (B, M, C) at `centres` interpolated to `xy` (B, N, 2): inverse distance, 3 nearest."""
-    d2 = squared_distances(xy, centres)
-    near_d2, near = nearest3(d2)
+    """values (B, M, C) at `centres` interpolated to `xy` (B, N, 2): inverse distance, 3 nearest
+    (found by `kernels.nearest3`)."""
+    near_d2, near = kernels.nearest3(_points(xy), _points(centres))
+    near_d2 = torch.from_numpy(near_d2).to(values.device)
+    near = torch.from_numpy(near).to(values.device)
     weight = 1.0 / (near_d2 + 1e-8)
     weight = weight / weight.sum(-1, keepdim=True)
     return (gather(values, near) * weight.unsqueeze(-1)).sum(2)

@@ -33,6 +33,8 @@ def weights_digest(path: str | Path | None = None) -> str:
 
 
 def require_torch(what: str = "the prehensile network (--feasibility net)") -> None:
-    """UsageError (one line, exit status 2) when PyTorch is not installed."""
+    """UsageError (one line, exit status 2) when PyTorch or numba (the `net` extra) is missing."""
     if importlib.util.find_spec("torch") is None:
         raise UsageError(f"{what} needs PyTorch: pip install 'tsad_drake[net]'")
+    if importlib.util.find_spec("numba") is None:
+        raise UsageError(f"{what} needs numba: pip install 'tsad_drake[net]'")

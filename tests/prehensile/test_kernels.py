@@ -1,0 +1,146 @@
+"""The compiled neighbourhood steps (prehensile/kernels.py) against plain torch references.
+
+The references are the torch forms the network used before the kernels (one batched matrix
+product for the squared distances, argmax FPS, cumulative-count ball query, topk): the kernels
+must give their indices and distances bit for bit, so the trained network's answers are the ones
+it was trained and benchmarked with."""
+
+import types
+
+import numpy as np
+import pytest
+import torch
+
+from tsad_drake.prehensile import dataset as pdata
+from tsad_drake.prehensile import encoding, kernels, network
+from tsad_drake.prehensile.network import NetConfig, PrehensileNet
+
+
+def ref_squared_distances(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    """(B, M, N) |a|^2 + |b|^2 - 2 a.b in float32, clamped at 0."""
+    cross = torch.baddbmm((a * a).sum(-1, keepdim=True), a, b.transpose(1, 2), alpha=-2.0)
+    return (cross + (b * b).sum(-1).unsqueeze(1)).clamp_(min=0.0)
+
+
+def ref_fps(xy: torch.Tensor, count: int) -> torch.Tensor:
+    """Greedy farthest point sampling from point 0 by argmax (first maximum wins)."""
+    pair = ref_squared_distances(xy, xy)
+    b, n, _ = pair.shape
+    dist = torch.full((b, n), float("inf"))
+    far = torch.zeros(b, dtype=torch.long)
+    out = []
+    for _ in range(count):
+        out.append(far)
+        dist = torch.minimum(dist, pair[torch.arange(b), far])
+        far = dist.argmax(dim=1)
+    return torch.stack(out, 1)
+
+
+def ref_ball(xy: torch.Tensor, centres: torch.Tensor, radius2: float, count: int) -> torch.Tensor:
+    """First `count` points in input order within squared radius `radius2` of each centre,
+    padded with the first."""
+    inside = ref_squared_distances(centres, xy) <= radius2
+    b, m, n = inside.shape
+    out = torch.empty((b, m, count), dtype=torch.long)
+    for s in range(b):
+        for c in range(m):
+            hits = torch.nonzero(inside[s, c]).flatten()[:count]
+            out[s, c] = torch.cat([hits, hits[:1].expand(count - len(hits))])
+    return out
+
+
+def ref_nearest3(xy: torch.Tensor, centres: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The three nearest centres by three min passes (ties to the lowest index; topk orders
+    equal distances differently, and the encoded queries have many)."""
+    work = ref_squared_distances(xy, centres)
+    values, indices = [], []
+    for _ in range(min(3, work.shape[-1])):
+        v, i = work.min(dim=-1)
+        values.append(v)
+        indices.append(i)
+        work.scatter_(-1, i.unsqueeze(-1), float("inf"))
+    return torch.stack(values, -1), torch.stack(indices, -1)
+
+
+@pytest.fixture(scope="module")
+def encoded():
+    """Every (object, angle) query of three generated scenes and one relocation of each."""
+    rows = []
+    scenes = [pdata.scene_states(seed, relocations=1, reobserve=False) for seed in (3, 4, 5)]
+    for _, state, oracle in [s for states in scenes for s in states]:
+        ws = oracle.workspace
+        cloud = encoding.state_cloud(state, ws)
+        queries = [(i, k) for i in range(len(state.objects))
+                   for k in range(len(ws.approach_angles))]
+        rows.append(encoding.encode_batch(cloud, queries, ws.approach_angles))
+    return tuple(np.concatenate(p) for p in zip(*rows))
+
+
+def _centres(xy: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
+    return torch.stack([xy[s, idx[s]] for s in range(xy.shape[0])])
+
+
+def test_kernels_match_torch_on_every_encoded_query(encoded):
+    xy_np = encoded[0]
+    assert len(xy_np) > 200
+    xy = torch.from_numpy(xy_np)
+    cfg = NetConfig()
+    fps = kernels.farthest_point_sampling(xy_np, cfg.sa1_centroids)
+    assert np.array_equal(fps, ref_fps(xy, cfg.sa1_centroids).numpy())
+    centres = _centres(xy, torch.from_numpy(fps))
+    radius = cfg.sa1_radius
+    balls = kernels.ball_query(xy_np, centres.numpy(), np.float32(radius * radius),
+                               cfg.sa1_neighbours)
+    assert np.array_equal(balls, ref_ball(xy, centres, radius * radius, cfg.sa1_neighbours).numpy())
+    values, indices = kernels.nearest3(xy_np, centres.numpy())
+    ref_values, ref_indices = ref_nearest3(xy, centres)
+    assert np.array_equal(indices, ref_indices.numpy())
+    assert np.array_equal(values, ref_values.numpy())  # bit for bit: the weights follow them
+
+
+def test_ties_on_a_grid_go_to_the_lowest_index():
+    """Points on a coarse grid with repeats: many equal distances in FPS, in the balls and among
+    the nearest centres; every tie is broken as torch breaks it."""
+    gen = torch.Generator().manual_seed(4)
+    xy = (torch.rand(5, 120, 2, generator=gen) * 10).round() / 10
+    xy_np = xy.numpy()
+    fps = kernels.farthest_point_sampling(xy_np, 24)
+    assert np.array_equal(fps, ref_fps(xy, 24).numpy())
+    centres = _centres(xy, torch.from_numpy(fps))
+    assert np.array_equal(kernels.ball_query(xy_np, centres.numpy(), np.float32(0.3 * 0.3), 8),
+                          ref_ball(xy, centres, 0.3 * 0.3, 8).numpy())
+    values, indices = kernels.nearest3(xy_np, centres.numpy())
+    ref_values, ref_indices = ref_nearest3(xy, centres)
+    assert np.array_equal(values, ref_values.numpy())
+    assert np.array_equal(indices, ref_indices.numpy())
+    d2 = ref_squared_distances(xy, centres).numpy()
+    ties = 0
+    for s in range(5):
+        for i in range(120):
+            expected = np.lexsort((np.arange(24), d2[s, i]))[:3]  # by distance, then index
+            assert indices[s, i].tolist() == expected.tolist()
+            ties += len(np.unique(d2[s, i])) < 24
+    assert ties > 100  # the grid does produce equal distances
+    two = kernels.nearest3(xy_np, centres.numpy()[:, :2])[1]
+    assert two.shape == (5, 120, 2)  # fewer than three centres
+
+
+def test_network_answers_are_those_of_the_torch_steps(encoded, monkeypatch):
+    """The whole forward pass with the kernels equals it with the torch references swapped in,
+    bit for bit, on the encoded queries (untrained weights; the steps take no weights)."""
+    torch.manual_seed(0)
+    net = PrehensileNet().eval()
+    xy, feats, ids = (torch.from_numpy(a) for a in encoded)
+    objects = int(ids.max()) + 1
+    with torch.no_grad():
+        reach, block = net(xy, feats, ids, objects)
+    as_np = types.SimpleNamespace(
+        farthest_point_sampling=lambda p, count: ref_fps(torch.from_numpy(p), count).numpy(),
+        ball_query=lambda p, c, radius2, count: ref_ball(
+            torch.from_numpy(p), torch.from_numpy(c), float(radius2), count).numpy(),
+        nearest3=lambda p, c: tuple(t.numpy() for t in ref_nearest3(torch.from_numpy(p),
+                                                                      torch.from_numpy(c))))
+    monkeypatch.setattr(network, "kernels", as_np)
+    with torch.no_grad():
+        ref_reach, ref_block = net(xy, feats, ids, objects)
+    assert torch.equal(reach, ref_reach) and torch.equal(block, ref_block)

@@ -1,0 +1,126 @@
+"""The network's neighbourhood steps as compiled loops (numba): farthest point sampling, ball
+query and the three nearest centres of inverse-distance interpolation.
+
+They depend on the input coordinates only (no weights, no gradient), and in torch they were
+about half of a forward pass at the planners' batch sizes (1-8 queries): FPS is `count`
+sequential steps, the ball query a cumulative count and a scatter over an (M, N) matrix, the
+nearest three three min passes; each a few operations whose per-call overhead dwarfs the
+arithmetic. Here each is one pass over the points.
+
+Squared distances are computed exactly as `network.squared_distances` rounds them on CPU
+(|a|^2 + |b|^2 - 2 a.b in float32, the dot product a fused multiply-add, checked bit for bit in
+tests/prehensile/test_kernels.py), so the indices and distances are those of the torch steps:
+same sampled centroids, same balls, same ties (the lowest index wins).
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+_JIT = {"cache": True, "nogil": True}
+
+
+@numba.njit(**_JIT)
+def _norms(p: np.ndarray) -> np.ndarray:
+    """|p|^2 per row of p (N, 2) float32, summed as torch sums the two squares."""
+    out = np.empty(p.shape[0], dtype=np.float32)
+    for i in range(p.shape[0]):
+        out[i] = np.float32(p[i, 0] * p[i, 0]) + np.float32(p[i, 1] * p[i, 1])
+    return out
+
+
+@numba.njit(**_JIT)
+def _d2(ax: np.float32, ay: np.float32, aa: np.float32, bx: np.float32, by: np.float32,
+        bb: np.float32) -> np.float32:
+    """One squared distance as `network.squared_distances` rounds it: dot = fma(ay, by, ax * bx),
+    (aa - 2 dot) + bb, clamped at 0. The float64 sum of the float32 product and the exact
+    float64 product, rounded once to float32, is the fused multiply-add."""
+    p = np.float32(ax * bx)
+    dot = np.float32(np.float64(p) + np.float64(ay) * np.float64(by))
+    d = np.float32(np.float32(aa + np.float32(-2.0) * dot) + bb)
+    return d if d > np.float32(0.0) else np.float32(0.0)
+
+
+@numba.njit(**_JIT)
+def farthest_point_sampling(xy: np.ndarray, count: int) -> np.ndarray:
+    """(B, count) farthest point sampling indices of xy (B, N, 2) float32, starting at point 0;
+    the first of equally far points wins."""
+    b, n = xy.shape[0], xy.shape[1]
+    idx = np.zeros((b, count), dtype=np.int64)
+    dist = np.empty(n, dtype=np.float32)
+    for s in range(b):
+        p = xy[s]
+        norms = _norms(p)
+        dist[:] = np.inf
+        far = 0
+        for k in range(count):
+            idx[s, k] = far
+            fx, fy, ff = p[far, 0], p[far, 1], norms[far]
+            best, best_j = np.float32(-1.0), 0
+            for j in range(n):
+                d = _d2(fx, fy, ff, p[j, 0], p[j, 1], norms[j])
+                if d < dist[j]:
+                    dist[j] = d
+                if dist[j] > best:
+                    best, best_j = dist[j], j
+            far = best_j
+    return idx
+
+
+@numba.njit(**_JIT)
+def ball_query(xy: np.ndarray, centres: np.ndarray, radius2: np.float32,
+               count: int) -> np.ndarray:
+    """(B, M, count) indices of the first `count` points of xy (B, N, 2) (input order) whose
+    squared distance to each centre (B, M, 2) is at most `radius2`; unused slots repeat the
+    first one."""
+    b, m, n = xy.shape[0], centres.shape[1], xy.shape[1]
+    out = np.zeros((b, m, count), dtype=np.int64)
+    for s in range(b):
+        pn = _norms(xy[s])
+        cn = _norms(centres[s])
+        for c in range(m):
+            cx, cy, cc = centres[s, c, 0], centres[s, c, 1], cn[c]
+            filled = 0
+            for j in range(n):
+                if _d2(cx, cy, cc, xy[s, j, 0], xy[s, j, 1], pn[j]) <= radius2:
+                    out[s, c, filled] = j
+                    filled += 1
+                    if filled == count:
+                        break
+            # a centre is one of the points, so filled >= 1 for the network's own centres
+            for k in range(filled, count):
+                out[s, c, k] = out[s, c, 0]
+    return out
+
+
+@numba.njit(**_JIT)
+def nearest3(xy: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(squared distances (B, N, k), indices (B, N, k)) of the k = min(3, M) nearest centres
+    (B, M, 2) to each point of xy (B, N, 2), ascending; ties go to the lowest index."""
+    b, n, m = xy.shape[0], xy.shape[1], centres.shape[1]
+    k = min(3, m)
+    values = np.empty((b, n, k), dtype=np.float32)
+    indices = np.empty((b, n, k), dtype=np.int64)
+    row = np.empty(m, dtype=np.float32)
+    for s in range(b):
+        pn = _norms(xy[s])
+        cn = _norms(centres[s])
+        for i in range(n):
+            px, py, pp = xy[s, i, 0], xy[s, i, 1], pn[i]
+            for c in range(m):
+                row[c] = _d2(px, py, pp, centres[s, c, 0], centres[s, c, 1], cn[c])
+            for r in range(k):
+                best, best_c = np.float32(np.inf), -1
+                for c in range(m):
+                    if row[c] < best:
+                        best, best_c = row[c], c
+                if best_c < 0:  # every remaining entry is inf: torch's min takes the first
+                    for c in range(m):
+                        if row[c] == np.inf:
+                            best_c = c
+                            break
+                values[s, i, r] = row[best_c]
+                indices[s, i, r] = best_c
+                row[best_c] = np.inf
+    return values, indices
