@@ -126,21 +126,46 @@ def test_ties_on_a_grid_go_to_the_lowest_index():
 
 
 def test_network_answers_are_those_of_the_torch_steps(encoded, monkeypatch):
-    """The whole forward pass with the kernels equals it with the torch references swapped in,
-    bit for bit, on the encoded queries (untrained weights; the steps take no weights)."""
+    """The planners' forward pass (no gradient: every step compiled) equals the all-torch forward
+    bit for bit on the encoded queries: the torch references swapped in for the neighbourhood
+    steps and the gradient on, so that interpolation and the per-object max pools take their
+    torch forms (untrained weights; the steps take no weights)."""
     torch.manual_seed(0)
     net = PrehensileNet().eval()
     xy, feats, ids = (torch.from_numpy(a) for a in encoded)
     objects = int(ids.max()) + 1
-    with torch.no_grad():
+    with torch.inference_mode():
         reach, block = net(xy, feats, ids, objects)
-    as_np = types.SimpleNamespace(
+
+    def unused(*args):
+        raise AssertionError("a compiled step ran in the reference pass")
+
+    reference = types.SimpleNamespace(
         farthest_point_sampling=lambda p, count: ref_fps(torch.from_numpy(p), count).numpy(),
         ball_query=lambda p, c, radius2, count: ref_ball(
             torch.from_numpy(p), torch.from_numpy(c), float(radius2), count).numpy(),
         nearest3=lambda p, c: tuple(t.numpy() for t in ref_nearest3(torch.from_numpy(p),
-                                                                      torch.from_numpy(c))))
-    monkeypatch.setattr(network, "kernels", as_np)
-    with torch.no_grad():
-        ref_reach, ref_block = net(xy, feats, ids, objects)
-    assert torch.equal(reach, ref_reach) and torch.equal(block, ref_block)
+                                                                      torch.from_numpy(c))),
+        interpolate=unused, segment_max=unused)
+    monkeypatch.setattr(network, "kernels", reference)
+    ref_reach, ref_block = net(xy, feats, ids, objects)
+    assert ref_reach.requires_grad
+    assert torch.equal(reach, ref_reach.detach()) and torch.equal(block, ref_block.detach())
+
+
+def test_interpolation_and_max_pools_match_their_torch_forms():
+    """The compiled weighted sum and per-object max equal the torch forms (gradient on) on
+    random inputs, including a segment with no point and ids past the last segment."""
+    gen = torch.Generator().manual_seed(6)
+    xy = torch.rand(4, 90, 2, generator=gen)
+    centres = xy[:, :12].contiguous()
+    values = torch.randn(4, 12, 9, generator=gen)
+    torch_form = network.interpolate(xy, centres, values.clone().requires_grad_())
+    assert torch.equal(network.interpolate(xy, centres, values), torch_form.detach())
+    points = torch.randn(4, 90, 5, generator=gen)
+    ids = torch.randint(-2, 7, (4, 90), generator=gen)
+    ids[ids == 3] = 4  # segment 3 empty; ids 6 lie past the 6 segments asked for
+    torch_pool = network.segment_max(points.clone().requires_grad_(), ids, 6)
+    got = network.segment_max(points, ids, 6)
+    assert torch.equal(got, torch_pool.detach())
+    assert torch.equal(got[:, 3], torch.zeros(4, 5))

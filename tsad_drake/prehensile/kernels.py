@@ -124,3 +124,54 @@ def nearest3(xy: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarra
                 indices[s, i, r] = best_c
                 row[best_c] = np.inf
     return values, indices
+
+
+@numba.njit(**_JIT)
+def interpolate(values: np.ndarray, near_d2: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """(B, N, C) inverse-distance interpolation of values (B, M, C) at the nearest centres
+    `near` (B, N, k) with squared distances `near_d2`, rounded as the torch form rounds it:
+    w = 1 / (d2 + 1e-8) normalised by its sum (summed in order), then sum_r values * w_r in
+    order r = 0, 1, 2 (float32 throughout)."""
+    b, n, k = near.shape
+    c = values.shape[2]
+    out = np.empty((b, n, c), dtype=np.float32)
+    w = np.empty(k, dtype=np.float32)
+    eps = np.float32(1e-8)
+    for s in range(b):
+        for i in range(n):
+            total = np.float32(0.0)
+            for r in range(k):
+                w[r] = np.float32(1.0) / np.float32(near_d2[s, i, r] + eps)
+                total = np.float32(total + w[r])
+            for r in range(k):
+                w[r] = np.float32(w[r] / total)
+            for ch in range(c):
+                acc = np.float32(0.0)
+                for r in range(k):
+                    acc = np.float32(acc + np.float32(values[s, near[s, i, r], ch] * w[r]))
+                out[s, i, ch] = acc
+    return out
+
+
+@numba.njit(**_JIT)
+def segment_max(values: np.ndarray, ids: np.ndarray, num_segments: int) -> np.ndarray:
+    """(B, S, C) max of values (B, N, C) over the points of each id in [0, S); negative ids (and
+    ids >= S) are ignored, a segment with no point gets zeros (a max rounds nothing)."""
+    b, n, c = values.shape
+    out = np.zeros((b, num_segments, c), dtype=np.float32)
+    seen = np.zeros(num_segments, dtype=np.bool_)
+    for s in range(b):
+        seen[:] = False
+        for i in range(n):
+            g = ids[s, i]
+            if g < 0 or g >= num_segments:
+                continue
+            if not seen[g]:
+                seen[g] = True
+                for ch in range(c):
+                    out[s, g, ch] = values[s, i, ch]
+            else:
+                for ch in range(c):
+                    if values[s, i, ch] > out[s, g, ch]:
+                        out[s, g, ch] = values[s, i, ch]
+    return out

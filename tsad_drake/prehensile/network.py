@@ -121,8 +121,12 @@ class SetAbstraction(nn.Module):
 
 def interpolate(xy: torch.Tensor, centres: torch.Tensor, values: torch.Tensor) -> torch.Tensor:
     """values (B, M, C) at `centres` interpolated to `xy` (B, N, 2): inverse distance, 3 nearest
-    (found by `kernels.nearest3`)."""
+    (found by `kernels.nearest3`). Without a gradient to carry (planning) the weighted sum is the
+    compiled `kernels.interpolate`, bit for bit this torch form (tests/prehensile/test_kernels.py),
+    which training keeps for its gradient."""
     near_d2, near = kernels.nearest3(_points(xy), _points(centres))
+    if not values.requires_grad:
+        return torch.from_numpy(kernels.interpolate(_points(values), near_d2, near)).to(values.device)
     near_d2 = torch.from_numpy(near_d2).to(values.device)
     near = torch.from_numpy(near).to(values.device)
     weight = 1.0 / (near_d2 + 1e-8)
@@ -140,7 +144,13 @@ def object_presence(ids: torch.Tensor, num_objects: int) -> torch.Tensor:
 
 def segment_max(values: torch.Tensor, ids: torch.Tensor, num_segments: int) -> torch.Tensor:
     """(B, S, C) max of `values` (B, N, C) over the points of each id in [0, S); points with a
-    negative id are ignored; an id with no point gets zeros."""
+    negative id are ignored; an id with no point gets zeros. Without a gradient to carry the
+    compiled `kernels.segment_max` (a max is exact: the same values); training keeps the torch
+    scatter for its gradient."""
+    if not values.requires_grad:
+        ids_np = np.ascontiguousarray(ids.detach().cpu().numpy(), dtype=np.int64)
+        return torch.from_numpy(kernels.segment_max(_points(values), ids_np, num_segments)).to(
+            values.device)
     b, _, c = values.shape
     slot = torch.where(ids >= 0, ids, torch.full_like(ids, num_segments)).clamp(max=num_segments)
     out = torch.full((b, num_segments + 1, c), float("-inf"), dtype=values.dtype)
