@@ -94,6 +94,29 @@ def test_first_place_option_is_the_first_valid_cell_of_place_options(weights, st
     assert checked > 0
 
 
+def test_a_placement_batch_carries_the_next_states_target_query(weights, states):
+    """After the target's R was asked at angle k, a placement check also answers the target at k
+    in each next state it tried, in the same forward pass; those answers are a fresh model's."""
+    from tsad_drake.planning.actions import choose_theta_pick
+
+    _, state, oracle = states[0]
+    ws = oracle.workspace
+    t, k = state.target_index, 3
+    model = NetFeasibility(ws, weights)
+    model.blockers_at(state, t, k)
+    mover = next(i for i in range(len(state.objects))
+                 if i != t and choose_theta_pick(model, state, i, ws) is not None)
+    theta = choose_theta_pick(model, state, mover, ws)
+    cells = list(range(len(ws.cell_centres)))
+    found = model.first_place_option(state, mover, theta, cells)
+    assert found is not None
+    nxt, _, _ = model._place_request(state, mover, theta, found[0], found[1])
+    before = model.evaluations
+    fresh = NetFeasibility(ws, weights)
+    assert model.blockers_at(nxt, t, k) == fresh.blockers_at(nxt, t, k)
+    assert model.evaluations == before  # answered in the placement's batch
+
+
 def test_place_options_are_network_checked_geometric_proposals(weights, states):
     from tsad_drake.planning.pointcloud_sim import simulate_pick_place
     from tsad_drake.planning.types import Action

@@ -91,6 +91,11 @@ class NetFeasibility(FeasibilityModel):
         self._place_memo: dict[tuple, np.ndarray] = {}
         #: digest of an encoded input -> its answer (reach, blockers)
         self._by_input: dict[bytes, tuple[bool, frozenset[int]]] = {}
+        #: angle index at which the target's R was asked last (`blockers_at`): a placement's next
+        #: state s' is usually the next search node, whose reward asks exactly that query, so
+        #: `first_place_option` runs it in the placement's batch (a batching hint: no answer
+        #: depends on it)
+        self._target_angle: int | None = None
         self.evaluations = 0  #: network queries run (cache misses)
         self.reused_inputs = 0  #: queries answered from an identical encoded input
         self.network_seconds = 0.0  #: wall time spent encoding and running them
@@ -165,6 +170,8 @@ class NetFeasibility(FeasibilityModel):
 
     def blockers_at(self, state: PlanningState, index: int, k: int) -> frozenset[int]:
         """R_{theta_k,s} for object `index`: one network query (cached)."""
+        if index == state.target_index:
+            self._target_angle = k
         self.evaluate([(state, index, k)])
         return self._answers[state.key()][(index, k)][1]
 
@@ -206,13 +213,18 @@ class NetFeasibility(FeasibilityModel):
     def first_place_option(self, state: PlanningState, index: int, theta_pick: float,
                            cells: list[int]) -> tuple[int, float] | None:
         """The first of `cells` (in that order) where `place_options` would allow the placement,
-        with its theta_place, querying the network for `PLACE_CHUNK` proposed cells at a time."""
+        with its theta_place, querying the network for `PLACE_CHUNK` proposed cells at a time
+        (with, in the same batch, the target's R in each next state at the angle last asked:
+        the reward of the node the placement makes, one forward pass fewer when it is asked)."""
         proposal = self.placement_model.place_options(state, index, theta_pick)
         proposed = [c for c in cells if not np.isnan(proposal[c])]
+        k = self._target_angle
         for first in range(0, len(proposed), PLACE_CHUNK):
             chunk = proposed[first:first + PLACE_CHUNK]
             requests = [self._place_request(state, index, theta_pick, c, proposal[c]) for c in chunk]
-            self.evaluate(requests)
+            companions = [] if k is None or index == state.target_index else [
+                (nxt, nxt.target_index, k) for nxt, _, _ in requests]
+            self.evaluate(requests + companions)
             for c, request in zip(chunk, requests):
                 if self._pickable_answer(request):
                     return c, float(proposal[c])
