@@ -226,8 +226,9 @@ def test_plan_check_accepts_the_plan_and_rejects_a_cut_or_broken_one(scenes, pla
                             workspace)
 
 
-@pytest.mark.parametrize("model_name", ["oracle", "geometric"])
+@pytest.mark.parametrize("model_name", ["oracle", "geometric", "net"])
 def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(model_name):
+    """The lazy draw (the network: one query per drawn cell) gives the eager list."""
     from tsad_drake.planning.actions import SAME_PLACE, UntriedActions
     from tsad_drake.planning.interface import approach_order
     from tsad_drake.planning.types import Action
@@ -266,7 +267,8 @@ def test_untried_actions_draw_exactly_the_feasible_actions_in_candidate_order(mo
         key = (state.objects[i].name, float(x), float(y))
         if key in eager:
             expected.append(eager[key])
-    untried = UntriedActions(model, state, workspace, list(candidates))
+    fresh = make_feasibility(model_name, scenario, workspace)  # nothing asked yet
+    untried = UntriedActions(fresh, state, workspace, list(candidates))
     drawn = []
     while (action := untried.pop()) is not None:
         drawn.append(action)
