@@ -97,32 +97,38 @@ def ball_query(xy: np.ndarray, centres: np.ndarray, radius2: np.float32,
 @numba.njit(**_JIT)
 def nearest3(xy: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(squared distances (B, N, k), indices (B, N, k)) of the k = min(3, M) nearest centres
-    (B, M, 2) to each point of xy (B, N, 2), ascending; ties go to the lowest index."""
+    (B, M, 2) to each point of xy (B, N, 2), ascending; ties go to the lowest index. One pass per
+    point keeps the k best so far; a centre displaces one only when strictly nearer, so an equal
+    distance seen later (a higher index) ranks after it, as repeated first-minimum passes rank
+    it."""
     b, n, m = xy.shape[0], xy.shape[1], centres.shape[1]
     k = min(3, m)
     values = np.empty((b, n, k), dtype=np.float32)
     indices = np.empty((b, n, k), dtype=np.int64)
-    row = np.empty(m, dtype=np.float32)
+    best = np.empty(k, dtype=np.float32)
+    best_i = np.empty(k, dtype=np.int64)
     for s in range(b):
         pn = _norms(xy[s])
         cn = _norms(centres[s])
         for i in range(n):
             px, py, pp = xy[s, i, 0], xy[s, i, 1], pn[i]
-            for c in range(m):
-                row[c] = _d2(px, py, pp, centres[s, c, 0], centres[s, c, 1], cn[c])
             for r in range(k):
-                best, best_c = np.float32(np.inf), -1
-                for c in range(m):
-                    if row[c] < best:
-                        best, best_c = row[c], c
-                if best_c < 0:  # every remaining entry is inf: torch's min takes the first
-                    for c in range(m):
-                        if row[c] == np.inf:
-                            best_c = c
-                            break
-                values[s, i, r] = row[best_c]
-                indices[s, i, r] = best_c
-                row[best_c] = np.inf
+                best[r] = np.inf
+                best_i[r] = -1
+            for c in range(m):
+                d = _d2(px, py, pp, centres[s, c, 0], centres[s, c, 1], cn[c])
+                if best_i[k - 1] >= 0 and not d < best[k - 1]:
+                    continue
+                r = k - 1  # insert d at the first slot it is strictly nearer than
+                while r > 0 and (best_i[r - 1] < 0 or d < best[r - 1]):
+                    best[r] = best[r - 1]
+                    best_i[r] = best_i[r - 1]
+                    r -= 1
+                best[r] = d
+                best_i[r] = c
+            for r in range(k):
+                values[s, i, r] = best[r]
+                indices[s, i, r] = best_i[r]
     return values, indices
 
 
