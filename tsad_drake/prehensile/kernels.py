@@ -1,5 +1,4 @@
-"""The network's neighbourhood steps as compiled loops (numba): farthest point sampling, ball
-query and the three nearest centres of inverse-distance interpolation.
+"""The network's weightless steps compiled (numba): FPS, ball query, nearest centres, interpolation, pools.
 
 They depend on the input coordinates only (no weights, no gradient), and in torch they were
 about half of a forward pass at the planners' batch sizes (1-8 queries): FPS is `count`
@@ -7,7 +6,8 @@ sequential steps, the ball query a cumulative count and a scatter over an (M, N)
 nearest three three min passes; each a few operations whose per-call overhead dwarfs the
 arithmetic. Here each is one pass over the points.
 
-Squared distances are computed exactly as `network.squared_distances` rounds them on CPU
+Interpolation and the max pools run here only without a gradient (planning). Squared
+distances are computed exactly as `network.squared_distances` rounds them on CPU
 (|a|^2 + |b|^2 - 2 a.b in float32, the dot product a fused multiply-add, checked bit for bit in
 tests/prehensile/test_kernels.py), so the indices and distances are those of the torch steps:
 same sampled centroids, same balls, same ties (the lowest index wins).

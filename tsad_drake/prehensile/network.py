@@ -1,4 +1,4 @@
-"""The prehensile decision network: a small PointNet++ in plain PyTorch (no compiled extensions).
+"""The prehensile decision network: a small PointNet++ in PyTorch, its weightless steps in numba.
 
 Input: one query (see `encoding.encode_query`): NUM_POINTS points with scaled xy in the
 approach frame (approach along +x, queried object at the origin) and per-point features (height,
