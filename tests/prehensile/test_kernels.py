@@ -1,9 +1,9 @@
 """The compiled neighbourhood steps (prehensile/kernels.py) against plain torch references.
 
-The references are the torch forms the network used before the kernels (one batched matrix
-product for the squared distances, argmax FPS, cumulative-count ball query, topk): the kernels
-must give their indices and distances bit for bit, so the trained network's answers are the ones
-it was trained and benchmarked with."""
+The references are the torch forms the network used before the kernels (one batched matrix product
+for the squared distances, argmax FPS, first points inside each ball, three min passes for the
+nearest centres): the kernels must give their indices and distances bit for bit, so the trained
+network's answers are the ones it was trained and benchmarked with."""
 
 import types
 

@@ -1,14 +1,14 @@
 """The network's weightless steps compiled (numba): FPS, ball query, nearest centres, interpolation, pools.
 
-They depend on the input coordinates only (no weights, no gradient), and in torch they were
-about half of a forward pass at the planners' batch sizes (1-8 queries): FPS is `count`
-sequential steps, the ball query a cumulative count and a scatter over an (M, N) matrix, the
-nearest three three min passes; each a few operations whose per-call overhead dwarfs the
-arithmetic. Here each is one pass over the points.
+None of them has weights. In torch the neighbourhood steps were about half of a forward pass at
+the planners' batch sizes (1-8 queries): FPS is `count` sequential steps, the ball query a
+cumulative count and a scatter over an (M, N) matrix, the nearest three three min passes; each a
+few operations whose per-call overhead dwarfs the arithmetic. Here each is one pass over the
+points. Interpolation and the max pools run here only without a gradient (planning); training
+keeps their torch forms.
 
-Interpolation and the max pools run here only without a gradient (planning). Squared
-distances are computed exactly as `network.squared_distances` rounds them on CPU
-(|a|^2 + |b|^2 - 2 a.b in float32, the dot product a fused multiply-add, checked bit for bit in
+Squared distances are rounded exactly as the torch form rounded them on CPU (|a|^2 + |b|^2 -
+2 a.b in float32 by one `baddbmm`, the dot product a fused multiply-add; checked bit for bit in
 tests/prehensile/test_kernels.py), so the indices and distances are those of the torch steps:
 same sampled centroids, same balls, same ties (the lowest index wins).
 """
@@ -33,7 +33,7 @@ def _norms(p: np.ndarray) -> np.ndarray:
 @numba.njit(**_JIT)
 def _d2(ax: np.float32, ay: np.float32, aa: np.float32, bx: np.float32, by: np.float32,
         bb: np.float32) -> np.float32:
-    """One squared distance as `network.squared_distances` rounds it: dot = fma(ay, by, ax * bx),
+    """One squared distance as the torch form rounds it: dot = fma(ay, by, ax * bx),
     (aa - 2 dot) + bb, clamped at 0. The float64 sum of the float32 product and the exact
     float64 product, rounded once to float32, is the fused multiply-add."""
     p = np.float32(ax * bx)
