@@ -1,9 +1,10 @@
-"""The compiled neighbourhood steps (prehensile/kernels.py) against plain torch references.
+"""The compiled steps (prehensile/kernels.py) against plain torch and NumPy references.
 
-The references are the torch forms the network used before the kernels (one batched matrix product
-for the squared distances, argmax FPS, first points inside each ball, three min passes for the
-nearest centres): the kernels must give their indices and distances bit for bit, so the trained
-network's answers are the ones it was trained and benchmarked with."""
+The references are the forms the network and the encoding used before the kernels (one batched
+matrix product for the squared distances, argmax FPS, first points inside each ball, three min
+passes for the nearest centres; the encoding's NumPy masks, sampling and features; the network's
+modules): the kernels must give their indices, distances, inputs and answers bit for bit, so the
+trained network's answers are the ones it was trained and benchmarked with."""
 
 import types
 
@@ -11,6 +12,7 @@ import numpy as np
 import pytest
 import torch
 
+from tsad_drake.planning.feasibility import CORRIDOR_OUTSIDE, polygon_widths
 from tsad_drake.prehensile import dataset as pdata
 from tsad_drake.prehensile import encoding, kernels, network
 from tsad_drake.prehensile.network import NetConfig, PrehensileNet
@@ -62,18 +64,100 @@ def ref_nearest3(xy: torch.Tensor, centres: torch.Tensor) -> tuple[torch.Tensor,
     return torch.stack(values, -1), torch.stack(indices, -1)
 
 
+def ref_encode_query(cloud, index: int, theta: float, angle_index: int):
+    """The encoding's NumPy form (before `kernels.window_split`, `hull_hits`, `query_features`
+    and the restored sampling streams)."""
+    c, s = np.cos(theta), np.sin(theta)
+    rel = cloud.xy - cloud.centres[index]
+    rot = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], axis=1)
+    keep = ((rot[:, 0] >= encoding.CROP_BACK) & (rot[:, 0] <= encoding.CROP_FRONT)
+            & (np.abs(rot[:, 1]) <= encoding.CROP_HALF_WIDTH))
+    is_query = cloud.ids == index
+    in_corridor = (np.abs(rot[:, 1]) <= cloud.half_width) & (rot[:, 0] <= cloud.finger_reach)
+    rng = np.random.default_rng([encoding.SAMPLE_SEED, index, angle_index])
+    query = np.nonzero(is_query)[0]
+    if len(query) > encoding.MAX_QUERY_POINTS:
+        order = np.argsort(rot[query, 1])
+        edges = np.concatenate([order[:encoding.QUERY_EDGE_POINTS],
+                                order[-encoding.QUERY_EDGE_POINTS:]])
+        rest = rng.choice(np.delete(np.arange(len(query)), edges),
+                          encoding.MAX_QUERY_POINTS - len(edges), replace=False)
+        query = query[np.concatenate([edges, rest])]
+    room = encoding.NUM_POINTS - len(query)
+    corridor = rng.permutation(np.nonzero(keep & in_corridor & ~is_query)[0])
+    _, first = np.unique(cloud.ids[corridor], return_index=True)
+    corridor = np.concatenate([corridor[first], np.delete(corridor, first)])[:room]
+    others = np.nonzero(keep & ~in_corridor & ~is_query)[0]
+    if len(others) > room - len(corridor):
+        others = rng.choice(others, room - len(corridor), replace=False)
+    chosen = np.concatenate([query, corridor, others]).astype(np.int64)
+    if len(chosen) < encoding.NUM_POINTS:
+        chosen = np.concatenate([chosen, rng.choice(chosen, encoding.NUM_POINTS - len(chosen))])
+    ids = cloud.ids[chosen]
+    hits = ref_hull_hits(cloud, index, theta)
+    hull_flag = np.append(hits, False)[np.where(ids >= 0, ids, -1)]
+    fits = polygon_widths(cloud.hulls[index], np.array([theta]))[0] <= cloud.max_width + 1e-9
+    feats = np.stack([cloud.z[chosen] / encoding.HEIGHT_SCALE, (ids == index).astype(float),
+                      (ids == encoding.WALL_ID).astype(float), in_corridor[chosen].astype(float),
+                      hull_flag.astype(float), ((ids == index) & fits).astype(float)], axis=1)
+    return ((rot[chosen] / encoding.COORD_SCALE).astype(np.float32), feats.astype(np.float32),
+            ids)
+
+
+def ref_hull_hits(cloud, index: int, theta: float) -> np.ndarray:
+    """The corridor-hull separating-axis test on (N, K) arrays (NumPy form)."""
+    u = np.array([np.cos(theta), np.sin(theta)])
+    v = np.array([-u[1], u[0]])
+    back = (cloud.centres[index, 0] + CORRIDOR_OUTSIDE) / max(u[0], 1e-6)
+    front, half = cloud.finger_reach, cloud.half_width
+    mid = cloud.centres[index] + (front - back) / 2 * u
+    along, across = (cloud.hulls - mid) @ u, (cloud.hulls - mid) @ v
+    length = (front + back) / 2
+    hits = ((along.min(axis=1) <= length) & (along.max(axis=1) >= -length)
+            & (across.min(axis=1) <= half) & (across.max(axis=1) >= -half))
+    n = cloud.hull_normals
+    centre, extent = n @ mid, length * np.abs(n @ u) + half * np.abs(n @ v)
+    apart = (centre - extent > cloud.hull_high) | (centre + extent < cloud.hull_low)
+    hits &= ~np.any(apart & cloud.hull_edges, axis=1)
+    hits[index] = False
+    return hits
+
+
 @pytest.fixture(scope="module")
-def encoded():
-    """Every (object, angle) query of three generated scenes and one relocation of each."""
-    rows = []
+def clouds():
+    """(state cloud, workspace, object count) of three generated scenes and one relocation of
+    each."""
     scenes = [pdata.scene_states(seed, relocations=1, reobserve=False) for seed in (3, 4, 5)]
-    for _, state, oracle in [s for states in scenes for s in states]:
-        ws = oracle.workspace
-        cloud = encoding.state_cloud(state, ws)
-        queries = [(i, k) for i in range(len(state.objects))
-                   for k in range(len(ws.approach_angles))]
+    return [(encoding.state_cloud(state, oracle.workspace), oracle.workspace, len(state.objects))
+            for _, state, oracle in [s for states in scenes for s in states]]
+
+
+@pytest.fixture(scope="module")
+def encoded(clouds):
+    """Every (object, angle) query of the clouds, encoded."""
+    rows = []
+    for cloud, ws, count in clouds:
+        queries = [(i, k) for i in range(count) for k in range(len(ws.approach_angles))]
         rows.append(encoding.encode_batch(cloud, queries, ws.approach_angles))
     return tuple(np.concatenate(p) for p in zip(*rows))
+
+
+def test_encoding_matches_its_numpy_form_on_every_query(clouds):
+    """Each query's input (points, features, ids) is the NumPy form's bit for bit, the sampling
+    included, in any order of queries (the restored streams start where a fresh one does)."""
+    checked = 0
+    for cloud, ws, count in clouds:
+        queries = [(i, k) for i in range(count) for k in range(len(ws.approach_angles))]
+        for i, k in queries[::-1] + queries:
+            theta = float(ws.approach_angles[k])
+            got = encoding.encode_query(cloud, i, theta, k)
+            want = ref_encode_query(cloud, i, theta, k)
+            for a, b in zip(got, want, strict=True):
+                assert a.dtype == b.dtype and np.array_equal(a, b)
+            assert np.array_equal(encoding.hull_hits(cloud, i, theta),
+                                  ref_hull_hits(cloud, i, theta))
+            checked += 1
+    assert checked > 500
 
 
 def _centres(xy: torch.Tensor, idx: torch.Tensor) -> torch.Tensor:
@@ -169,3 +253,22 @@ def test_interpolation_and_max_pools_match_their_torch_forms():
     got = network.segment_max(points, ids, 6)
     assert torch.equal(got, torch_pool.detach())
     assert torch.equal(got[:, 3], torch.zeros(4, 5))
+
+
+@pytest.mark.parametrize("weights", ["untrained", "shipped"])
+def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights):
+    """`predict` (compiled groups, functional layers, ReLU in place) answers what the modules'
+    forward pass answers, bit for bit, at the planners' batch sizes and at a large one."""
+    from tsad_drake.prehensile.checkpoint import load_checkpoint
+
+    torch.manual_seed(0)
+    net = PrehensileNet().eval() if weights == "untrained" else load_checkpoint(None)[0]
+    xy, feats, ids = encoded
+    objects = int(ids.max()) + 1
+    for size in (1, 3, 7, len(xy)):
+        with torch.inference_mode():
+            reach, block = net(torch.from_numpy(xy[:size]), torch.from_numpy(feats[:size]),
+                               torch.from_numpy(ids[:size]), objects)
+            fast_reach, fast_block = network.predict(net, xy[:size], feats[:size],
+                                                     ids[:size].copy(), objects)
+        assert torch.equal(reach, fast_reach) and torch.equal(block, fast_block)

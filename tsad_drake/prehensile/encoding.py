@@ -163,47 +163,55 @@ def hull_hits(cloud: StateCloud, index: int, theta: float) -> np.ndarray:
     The separating-axis test of `geometry2d.convex_polygons_overlap_pairs` against the corridor
     of `geometry2d.approach_corridor` (touching counts as meeting), with each hull's side of the
     test (its edge normals and its extent along them) precomputed per object pose
-    (`padded_hull`): one query is a few products of (N, K) arrays (the generic test: 0.1 ms).
+    (`padded_hull`): one compiled pass over the (N, K) hull vertices (`kernels.hull_hits`).
     """
-    u = np.array([np.cos(theta), np.sin(theta)])
-    v = np.array([-u[1], u[0]])
-    back = (cloud.centres[index, 0] + CORRIDOR_OUTSIDE) / max(u[0], 1e-6)
-    front, half = cloud.finger_reach, cloud.half_width
-    mid = cloud.centres[index] + (front - back) / 2 * u  # the corridor box's centre
-    # the corridor's own axes
-    along = (cloud.hulls - mid) @ u
-    across = (cloud.hulls - mid) @ v
-    length = (front + back) / 2
-    hits = ((along.min(axis=1) <= length) & (along.max(axis=1) >= -length)
-            & (across.min(axis=1) <= half) & (across.max(axis=1) >= -half))
-    # the hulls' edge normals: the box's projection against the hull's extent along each
-    n = cloud.hull_normals
-    centre = n @ mid
-    extent = length * np.abs(n @ u) + half * np.abs(n @ v)
-    apart = (centre - extent > cloud.hull_high) | (centre + extent < cloud.hull_low)
-    hits &= ~np.any(apart & cloud.hull_edges, axis=1)
-    hits[index] = False
-    return hits
+    from tsad_drake.prehensile import kernels  # numba: the `net` extra (not needed to import)
+
+    return kernels.hull_hits(cloud.centres, cloud.hulls, cloud.hull_normals, cloud.hull_low,
+                             cloud.hull_high, cloud.hull_edges, index, float(np.cos(theta)),
+                             float(np.sin(theta)), CORRIDOR_OUTSIDE, cloud.finger_reach,
+                             cloud.half_width)
+
+
+#: (object index, angle index) -> the bit generator state `np.random.default_rng([SAMPLE_SEED,
+#: object index, angle index])` starts in; seeding is 13 us a query, restoring a state 1 us
+_RNG_STATES: dict[tuple[int, int], dict] = {}
+_BIT_GENERATOR = np.random.PCG64()
+_QUERY_RNG = np.random.Generator(_BIT_GENERATOR)
+
+
+def query_rng(index: int, angle_index: int) -> np.random.Generator:
+    """The sampling stream of query (object `index`, angle `angle_index`), from its start: the
+    stream of `np.random.default_rng([SAMPLE_SEED, index, angle_index])`, draw for draw (one
+    generator, its state restored per query; valid until the next call)."""
+    state = _RNG_STATES.get((index, angle_index))
+    if state is None:
+        seeded = np.random.default_rng([SAMPLE_SEED, index, angle_index])
+        state = _RNG_STATES[(index, angle_index)] = seeded.bit_generator.state
+    _BIT_GENERATOR.state = state
+    return _QUERY_RNG
 
 
 def encode_query(cloud: StateCloud, index: int, theta: float,
                  angle_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Input of query (object `index`, approach `theta`).
 
+    The per-point steps (frame, crop, corridor flags, features) are compiled (`kernels`), the
+    sampling draws from the query's own NumPy stream (`query_rng`).
+
     Returns:
-        xy (NUM_POINTS, 2) float32 scaled coordinates, feats (NUM_POINTS, 4) float32,
+        xy (NUM_POINTS, 2) float32 scaled coordinates, feats (NUM_POINTS, NUM_FEATURES) float32,
         ids (NUM_POINTS,) int64 object index per point (WALL_ID for walls).
     """
-    c, s = np.cos(theta), np.sin(theta)
-    rel = cloud.xy - cloud.centres[index]
-    rot = np.stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1]], axis=1)
-    keep = ((rot[:, 0] >= CROP_BACK) & (rot[:, 0] <= CROP_FRONT)
-            & (np.abs(rot[:, 1]) <= CROP_HALF_WIDTH))
-    is_query = cloud.ids == index
-    in_corridor = (np.abs(rot[:, 1]) <= cloud.half_width) & (rot[:, 0] <= cloud.finger_reach)
-    rng = np.random.default_rng([SAMPLE_SEED, index, angle_index])
-    query = np.nonzero(is_query)[0]  # always kept, even outside the window
-    if len(query) > MAX_QUERY_POINTS:
+    from tsad_drake.prehensile import kernels  # numba: the `net` extra (not needed to import)
+
+    c, s = float(np.cos(theta)), float(np.sin(theta))
+    cx, cy = cloud.centres[index]
+    rot, in_corridor, query, corridor, others = kernels.window_split(
+        cloud.xy, cloud.ids, float(cx), float(cy), c, s, index,
+        (CROP_BACK, CROP_FRONT, CROP_HALF_WIDTH), cloud.half_width, cloud.finger_reach)
+    rng = query_rng(index, angle_index)
+    if len(query) > MAX_QUERY_POINTS:  # the queried object's points are kept wherever they are
         # its outermost points across the approach first (they decide whether it fits the
         # stroke: a random subset can miss a box's corner by millimetres), then the rest at random
         order = np.argsort(rot[query, 1])
@@ -214,22 +222,16 @@ def encode_query(cloud: StateCloud, index: int, theta: float,
     room = NUM_POINTS - len(query)
     # corridor points first (one per object before the rest, should they not all fit): an
     # object that reaches into the corridor by a few points must not lose them to sampling
-    corridor = rng.permutation(np.nonzero(keep & in_corridor & ~is_query)[0])
-    _, first = np.unique(cloud.ids[corridor], return_index=True)
-    corridor = np.concatenate([corridor[first], np.delete(corridor, first)])[:room]
-    others = np.nonzero(keep & ~in_corridor & ~is_query)[0]
+    corridor = kernels.firsts_first(rng.permutation(corridor), cloud.ids)[:room]
     if len(others) > room - len(corridor):
         others = rng.choice(others, room - len(corridor), replace=False)
-    chosen = np.concatenate([query, corridor, others]).astype(np.int64)
+    chosen = np.concatenate([query, corridor, others])
     if len(chosen) < NUM_POINTS:  # pad by repeating points (max pooling ignores repeats)
         chosen = np.concatenate([chosen, rng.choice(chosen, NUM_POINTS - len(chosen))])
-    ids = cloud.ids[chosen]
-    hull_flag = np.append(hull_hits(cloud, index, theta), False)[np.where(ids >= 0, ids, -1)]
     fits = polygon_widths(cloud.hulls[index], np.array([theta]))[0] <= cloud.max_width + 1e-9
-    feats = np.stack([cloud.z[chosen] / HEIGHT_SCALE, (ids == index).astype(float),
-                      (ids == WALL_ID).astype(float), in_corridor[chosen].astype(float),
-                      hull_flag.astype(float), ((ids == index) & fits).astype(float)], axis=1)
-    return (rot[chosen] / COORD_SCALE).astype(np.float32), feats.astype(np.float32), ids
+    return kernels.query_features(rot, cloud.z, cloud.ids, in_corridor, chosen,
+                                  hull_hits(cloud, index, theta), index, bool(fits), WALL_ID,
+                                  COORD_SCALE, HEIGHT_SCALE)
 
 
 def encode_batch(cloud: StateCloud, queries: list[tuple[int, int]],

@@ -181,3 +181,185 @@ def segment_max(values: np.ndarray, ids: np.ndarray, num_segments: int) -> np.nd
                     if values[s, i, ch] > out[s, g, ch]:
                         out[s, g, ch] = values[s, i, ch]
     return out
+
+
+
+@numba.njit(**_JIT)
+def take(xy: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """(B, M, 2) the points of xy (B, N, 2) at idx (B, M)."""
+    b, m = idx.shape
+    out = np.empty((b, m, xy.shape[2]), dtype=xy.dtype)
+    for s in range(b):
+        for c in range(m):
+            out[s, c] = xy[s, idx[s, c]]
+    return out
+
+
+@numba.njit(**_JIT)
+def group(xy: np.ndarray, feats: np.ndarray, centres: np.ndarray, groups: np.ndarray,
+          radius: np.float32) -> np.ndarray:
+    """(B, M, K, 2 + C) a set abstraction's groups: per centre (B, M, 2) and neighbour groups
+    (B, M, K) of xy (B, N, 2), the neighbour's offset from the centre / radius, then its
+    features (B, N, C) (float32, as the torch form rounds it: a subtraction, then a division)."""
+    b, m, k = groups.shape
+    c = feats.shape[2]
+    out = np.empty((b, m, k, 2 + c), dtype=np.float32)
+    for s in range(b):
+        for g in range(m):
+            cx, cy = centres[s, g, 0], centres[s, g, 1]
+            for j in range(k):
+                p = groups[s, g, j]
+                out[s, g, j, 0] = np.float32(xy[s, p, 0] - cx) / radius
+                out[s, g, j, 1] = np.float32(xy[s, p, 1] - cy) / radius
+                for ch in range(c):
+                    out[s, g, j, 2 + ch] = feats[s, p, ch]
+    return out
+
+# -- the encoding's per-point steps (`encoding.encode_query`) ----------------------------------
+# float64 throughout, each operation in the order the NumPy form of the encoding ran it (no fused
+# multiply-add: numba does not contract without fastmath), so every value and flag is the same.
+
+
+@numba.njit(**_JIT)
+def window_split(xy: np.ndarray, ids: np.ndarray, cx: float, cy: float, c: float, s: float,
+                 index: int, crop: tuple[float, float, float], half_width: float,
+                 finger_reach: float) -> tuple[np.ndarray, ...]:
+    """One query's view of a state cloud: points xy (M, 2) moved so (cx, cy) is the origin and
+    rotated by -theta (c, s = cos, sin theta) -> rot (M, 2); in_corridor (M,) (|y| <= half_width
+    and x <= finger_reach); and, in point order, the indices of the queried object's points (id
+    `index`, wherever they are), of the other points in the crop window (x in [crop[0],
+    crop[1]], |y| <= crop[2]) inside the corridor, and of those outside it."""
+    m = xy.shape[0]
+    rot = np.empty((m, 2))
+    in_corridor = np.empty(m, dtype=np.bool_)
+    query = np.empty(m, dtype=np.int64)
+    corridor = np.empty(m, dtype=np.int64)
+    others = np.empty(m, dtype=np.int64)
+    nq = nc = no = 0
+    for p in range(m):
+        rx, ry = xy[p, 0] - cx, xy[p, 1] - cy
+        x = c * rx + s * ry
+        y = -s * rx + c * ry
+        rot[p, 0], rot[p, 1] = x, y
+        inside = abs(y) <= half_width and x <= finger_reach
+        in_corridor[p] = inside
+        if ids[p] == index:
+            query[nq] = p
+            nq += 1
+        elif x >= crop[0] and x <= crop[1] and abs(y) <= crop[2]:
+            if inside:
+                corridor[nc] = p
+                nc += 1
+            else:
+                others[no] = p
+                no += 1
+    return rot, in_corridor, query[:nq], corridor[:nc], others[:no]
+
+
+@numba.njit(**_JIT)
+def firsts_first(points: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """`points` reordered: the first point of each object id (ids[points]), ascending by id, then
+    the rest in their order (the order np.unique(ids[points], return_index=True) gives)."""
+    n = points.shape[0]
+    if n == 0:
+        return points.copy()
+    lo, hi = ids[points[0]], ids[points[0]]
+    for j in range(n):
+        g = ids[points[j]]
+        lo, hi = min(lo, g), max(hi, g)
+    first = np.full(hi - lo + 1, -1, dtype=np.int64)
+    for j in range(n):
+        g = ids[points[j]] - lo
+        if first[g] < 0:
+            first[g] = j
+    out = np.empty(n, dtype=np.int64)
+    taken = np.zeros(n, dtype=np.bool_)
+    k = 0
+    for g in range(first.shape[0]):
+        if first[g] >= 0:
+            out[k] = points[first[g]]
+            taken[first[g]] = True
+            k += 1
+    for j in range(n):
+        if not taken[j]:
+            out[k] = points[j]
+            k += 1
+    return out
+
+
+@numba.njit(**_JIT)
+def hull_hits(centres: np.ndarray, hulls: np.ndarray, normals: np.ndarray, low: np.ndarray,
+              high: np.ndarray, edges: np.ndarray, index: int, ux: float, uy: float,
+              outside: float, front: float, half: float) -> np.ndarray:
+    """(N,) whether each object's padded hull (N, K, 2) meets the approach corridor to object
+    `index` along u = (ux, uy) (False for `index`): `encoding.hull_hits`'s separating-axis test,
+    the corridor's own two axes first, then each hull's edge normals with their precomputed
+    extents `low` / `high` (N, K); `edges` (N, K) marks the real ones."""
+    n, k = hulls.shape[0], hulls.shape[1]
+    vx, vy = -uy, ux
+    back = (centres[index, 0] + outside) / max(ux, 1e-6)
+    step = (front - back) / 2
+    mx, my = centres[index, 0] + step * ux, centres[index, 1] + step * uy
+    length = (front + back) / 2
+    hits = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        if i == index:
+            continue
+        a_lo = a_hi = c_lo = c_hi = 0.0
+        for j in range(k):
+            dx, dy = hulls[i, j, 0] - mx, hulls[i, j, 1] - my
+            along = dx * ux + dy * uy
+            across = dx * vx + dy * vy
+            if j == 0 or along < a_lo:
+                a_lo = along
+            if j == 0 or along > a_hi:
+                a_hi = along
+            if j == 0 or across < c_lo:
+                c_lo = across
+            if j == 0 or across > c_hi:
+                c_hi = across
+        if not (a_lo <= length and a_hi >= -length and c_lo <= half and c_hi >= -half):
+            continue
+        hit = True
+        for j in range(k):
+            if not edges[i, j]:
+                continue
+            nx, ny = normals[i, j, 0], normals[i, j, 1]
+            centre = nx * mx + ny * my
+            extent = length * abs(nx * ux + ny * uy) + half * abs(nx * vx + ny * vy)
+            if centre - extent > high[i, j] or centre + extent < low[i, j]:
+                hit = False
+                break
+        hits[i] = hit
+    return hits
+
+
+@numba.njit(**_JIT)
+def query_features(rot: np.ndarray, z: np.ndarray, ids: np.ndarray, in_corridor: np.ndarray,
+                   chosen: np.ndarray, hits: np.ndarray, index: int, fits: bool, wall_id: int,
+                   coord_scale: float, height_scale: float) -> tuple[np.ndarray, ...]:
+    """The chosen points' network input: xy (P, 2) = rot / coord_scale, feats (P, 6) (height /
+    height_scale, is-query, is-wall, in-corridor, its object's hull hits the corridor (`hits`),
+    is-query and the query fits the stroke), both float32, and their ids (P,)."""
+    p = chosen.shape[0]
+    xy = np.empty((p, 2), dtype=np.float32)
+    feats = np.zeros((p, 6), dtype=np.float32)
+    out_ids = np.empty(p, dtype=np.int64)
+    for r in range(p):
+        q = chosen[r]
+        g = ids[q]
+        out_ids[r] = g
+        xy[r, 0] = rot[q, 0] / coord_scale
+        xy[r, 1] = rot[q, 1] / coord_scale
+        feats[r, 0] = z[q] / height_scale
+        if g == index:
+            feats[r, 1] = 1.0
+            if fits:
+                feats[r, 5] = 1.0
+        if g == wall_id:
+            feats[r, 2] = 1.0
+        if in_corridor[q]:
+            feats[r, 3] = 1.0
+        if g >= 0 and hits[g]:
+            feats[r, 4] = 1.0
+    return xy, feats, out_ids

@@ -33,6 +33,7 @@ import dataclasses as dc
 import numpy as np
 import torch
 from torch import nn
+from torch.nn import functional as F
 
 from tsad_drake.prehensile import kernels
 
@@ -204,17 +205,86 @@ class PrehensileNet(nn.Module):
         return reach, self.object_head(per_object).squeeze(-1)
 
 
+def _layers(module: nn.Module) -> list[nn.Module]:
+    """The Linear, LayerNorm and ReLU layers of `module` in the order its Sequentials run them."""
+    if isinstance(module, nn.Sequential):
+        return [layer for child in module for layer in _layers(child)]
+    return [module]
+
+
+def _run(layers: list[nn.Module], x: torch.Tensor) -> torch.Tensor:
+    """`layers` applied to x as their modules apply them (the same functional calls), ReLU in
+    place: x is an intermediate of `predict`, never a caller's tensor."""
+    for layer in layers:
+        if isinstance(layer, nn.Linear):
+            x = F.linear(x, layer.weight, layer.bias)
+        elif isinstance(layer, nn.LayerNorm):
+            x = F.layer_norm(x, layer.normalized_shape, layer.weight, layer.bias, layer.eps)
+        else:
+            x = x.relu_()
+    return x
+
+
+def _set_abstraction(sa: SetAbstraction, layers: list[nn.Module], xy: np.ndarray,
+                     feats: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`SetAbstraction.forward` on NumPy arrays: the groups built by one compiled pass
+    (`kernels.group`), the shared MLP's last ReLU after the max pool (the max of the rectified
+    values is the rectified max, exactly)."""
+    centres = kernels.take(xy, kernels.farthest_point_sampling(xy, sa.centroids))
+    groups = kernels.ball_query(xy, centres, np.float32(sa.radius * sa.radius), sa.neighbours)
+    grouped = torch.from_numpy(kernels.group(xy, feats, centres, groups, np.float32(sa.radius)))
+    pooled = _run(layers[:-1], grouped).amax(dim=2).relu_()
+    return centres, pooled.numpy()
+
+
+def predict(net: PrehensileNet, xy: np.ndarray, feats: np.ndarray, ids: np.ndarray,
+            num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """`net.forward` without a gradient, bit for bit (tests/prehensile/test_kernels.py), on
+    NumPy inputs (xy (B, N, 2) and feats (B, N, F) float32, ids (B, N) int64): the planners'
+    forward pass. The neighbourhood steps, groups, interpolation and pools are compiled
+    (`kernels`), the layers are called as functions with ReLU in place: at the planners' batch
+    sizes (1-8 queries) the modules' call overhead and the intermediate tensors were a large part
+    of a pass."""
+    layers = net.__dict__.get("_predict_layers")
+    if layers is None:  # the layer objects (their parameters are read at each call)
+        layers = net.__dict__["_predict_layers"] = {
+            name: _layers(module) for name, module in (
+                ("sa1", net.sa1.mlp), ("sa2", net.sa2.mlp), ("global_mlp", net.global_mlp),
+                ("raw_mlp", net.raw_mlp), ("point_mlp", net.point_mlp),
+                ("reach_head", net.reach_head), ("object_head", net.object_head))}
+    c1, f1 = _set_abstraction(net.sa1, layers["sa1"], xy, feats)
+    c2, f2 = _set_abstraction(net.sa2, layers["sa2"], c1, f1)
+    glob = _run(layers["global_mlp"], torch.from_numpy(np.concatenate([c2, f2], axis=-1)))
+    glob = glob.amax(dim=1)  # (B, G)
+    near2, near1 = kernels.nearest3(xy, c2), kernels.nearest3(xy, c1)
+    local = torch.from_numpy(np.concatenate(
+        [xy, feats, kernels.interpolate(f2, *near2), kernels.interpolate(f1, *near1)], axis=-1))
+    hidden = _run(layers["point_mlp"], F.linear(local, net.point_local.weight,
+                                                net.point_local.bias)
+                  + F.linear(glob, net.point_global.weight).unsqueeze(1))
+    hidden_np = hidden.numpy()
+    pooled = torch.from_numpy(kernels.segment_max(hidden_np, ids, num_objects))
+    role = np.where(feats[..., 1] > 0.5, 0, np.where(feats[..., 2] > 0.5, 1, -1))
+    query, walls = torch.from_numpy(kernels.segment_max(hidden_np, role, 2)).unbind(1)
+    raw_points = _run(layers["raw_mlp"], torch.from_numpy(np.concatenate([xy, feats], axis=-1)))
+    raw = torch.from_numpy(kernels.segment_max(raw_points.numpy(), role, 2)).flatten(1)
+    reach = _run(layers["reach_head"], torch.cat([glob, query, walls, raw], dim=-1)).squeeze(-1)
+    per_object = torch.cat([pooled, query.unsqueeze(1).expand_as(pooled)], dim=-1)
+    return reach, _run(layers["object_head"], per_object).squeeze(-1)
+
+
 def query_scores(net: PrehensileNet, xy, feats, ids, queried: list[int],
                  num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
     """(reach logits (B,), per-object block probabilities (B, num_objects)) of encoded queries
-    (NumPy arrays from `encode_query`). Probability 0 for the queried object (never its own
-    blocker) and for every object with no point in the query's input: it lies outside the window
-    the approach can touch, and the head, trained on objects that have points, would only
-    answer its bias for the empty pooled embedding."""
+    (NumPy arrays from `encode_query`), by `predict`. Probability 0 for the queried object (never
+    its own blocker) and for every object with no point in the query's input: it lies outside
+    the window the approach can touch, and the head, trained on objects that have points, would
+    only answer its bias for the empty pooled embedding."""
     with torch.inference_mode():
-        ids_t = torch.from_numpy(ids.astype("int64"))
-        mine = ids_t == torch.tensor(queried).unsqueeze(1)
-        ids_t[mine] = -1
-        reach, block = net(torch.from_numpy(xy), torch.from_numpy(feats), ids_t, num_objects)
+        ids = ids.astype(np.int64)  # a copy: the queried object's points become -1
+        ids[ids == np.asarray(queried, dtype=np.int64)[:, None]] = -1
+        reach, block = predict(net, np.ascontiguousarray(xy, dtype=np.float32),
+                               np.ascontiguousarray(feats, dtype=np.float32), ids, num_objects)
+        ids_t = torch.from_numpy(ids)
         prob = torch.where(object_presence(ids_t, num_objects), torch.sigmoid(block), 0.0)
         return reach, prob
