@@ -107,16 +107,20 @@ def nearest3(xy: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarra
     indices = np.empty((b, n, k), dtype=np.int64)
     best = np.empty(k, dtype=np.float32)
     best_i = np.empty(k, dtype=np.int64)
+    dist = np.empty(m, dtype=np.float32)
     for s in range(b):
         pn = _norms(xy[s])
         cn = _norms(centres[s])
+        cx, cy = centres[s, :, 0].copy(), centres[s, :, 1].copy()
         for i in range(n):
             px, py, pp = xy[s, i, 0], xy[s, i, 1], pn[i]
+            for c in range(m):  # every distance first (a loop the compiler vectorises)
+                dist[c] = _d2(px, py, pp, cx[c], cy[c], cn[c])
             for r in range(k):
                 best[r] = np.inf
                 best_i[r] = -1
             for c in range(m):
-                d = _d2(px, py, pp, centres[s, c, 0], centres[s, c, 1], cn[c])
+                d = dist[c]
                 if best_i[k - 1] >= 0 and not d < best[k - 1]:
                     continue
                 r = k - 1  # insert d at the first slot it is strictly nearer than
@@ -151,11 +155,15 @@ def interpolate(values: np.ndarray, near_d2: np.ndarray, near: np.ndarray) -> np
                 total = np.float32(total + w[r])
             for r in range(k):
                 w[r] = np.float32(w[r] / total)
-            for ch in range(c):
-                acc = np.float32(0.0)
-                for r in range(k):
-                    acc = np.float32(acc + np.float32(values[s, near[s, i, r], ch] * w[r]))
-                out[s, i, ch] = acc
+            # per channel the sum runs r = 0, 1, 2 from 0 as before; channels innermost
+            # (contiguous, vectorised)
+            row = out[s, i]
+            row[:] = np.float32(0.0)
+            for r in range(k):
+                src = values[s, near[s, i, r]]
+                wr = w[r]
+                for ch in range(c):
+                    row[ch] = np.float32(row[ch] + np.float32(src[ch] * wr))
     return out
 
 
