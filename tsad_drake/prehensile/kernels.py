@@ -195,7 +195,6 @@ def segment_max(values: np.ndarray, ids: np.ndarray, num_segments: int) -> np.nd
     return out
 
 
-
 @numba.njit(**_JIT)
 def take(xy: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """(B, M, 2) the points of xy (B, N, 2) at idx (B, M)."""
@@ -226,6 +225,7 @@ def group(xy: np.ndarray, feats: np.ndarray, centres: np.ndarray, groups: np.nda
                 for ch in range(c):
                     out[s, g, j, 2 + ch] = feats[s, p, ch]
     return out
+
 
 # -- the encoding's per-point steps (`encoding.encode_query`) ----------------------------------
 # float64 throughout, each operation in the order the NumPy form of the encoding ran it (no fused
@@ -304,9 +304,11 @@ def hull_hits(centres: np.ndarray, hulls: np.ndarray, normals: np.ndarray, low: 
               high: np.ndarray, edges: np.ndarray, index: int, ux: float, uy: float,
               outside: float, front: float, half: float) -> np.ndarray:
     """(N,) whether each object's padded hull (N, K, 2) meets the approach corridor to object
-    `index` along u = (ux, uy) (False for `index`): `encoding.hull_hits`'s separating-axis test,
-    the corridor's own two axes first, then each hull's edge normals with their precomputed
-    extents `low` / `high` (N, K); `edges` (N, K) marks the real ones."""
+    `index` along u = (ux, uy) (False for `index`; touching counts as meeting): a separating-axis
+    test of the corridor box (from `outside` behind the shelf front to `front` past the object's
+    centre, `half` either side) against each hull, the box's own two axes first, then the hull's
+    edge normals with its precomputed extents `low` / `high` (N, K); `edges` (N, K) marks the
+    real edges (the padding's are zero-length)."""
     n, k = hulls.shape[0], hulls.shape[1]
     vx, vy = -uy, ux
     back = (centres[index, 0] + outside) / max(ux, 1e-6)
