@@ -256,9 +256,10 @@ def test_interpolation_and_max_pools_match_their_torch_forms():
 
 
 @pytest.mark.parametrize("weights", ["untrained", "shipped"])
-def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights):
+def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights, monkeypatch):
     """`predict` (compiled groups, functional layers, ReLU in place) answers what the modules'
-    forward pass answers, bit for bit, at the planners' batch sizes and at a large one."""
+    forward pass answers: bit for bit with its small products unpadded, at the planners' batch
+    sizes and at a large one, and within 1e-5 with them padded (`batch_linear`)."""
     from tsad_drake.prehensile.checkpoint import load_checkpoint
 
     torch.manual_seed(0)
@@ -269,6 +270,60 @@ def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights):
         with torch.inference_mode():
             reach, block = net(torch.from_numpy(xy[:size]), torch.from_numpy(feats[:size]),
                                torch.from_numpy(ids[:size]), objects)
-            fast_reach, fast_block = network.predict(net, xy[:size], feats[:size],
-                                                     ids[:size].copy(), objects)
-        assert torch.equal(reach, fast_reach) and torch.equal(block, fast_block)
+            padded = network.predict(net, xy[:size], feats[:size], ids[:size].copy(), objects)
+            with monkeypatch.context() as m:
+                m.setattr(network, "MIN_ROWS", 0)
+                m.setattr(network, "MIN_OUTPUTS", 0)
+                plain = network.predict(net, xy[:size], feats[:size], ids[:size].copy(), objects)
+        assert torch.equal(reach, plain[0]) and torch.equal(block, plain[1])
+        assert torch.allclose(reach, padded[0], atol=1e-5)
+        assert torch.allclose(block, padded[1], atol=1e-5)
+
+
+def _layer_shapes(net: PrehensileNet) -> list[tuple[torch.Tensor, torch.Tensor | None]]:
+    return [(m.weight, m.bias) for m in net.modules() if isinstance(m, torch.nn.Linear)]
+
+
+def test_every_layers_rows_are_the_same_at_any_row_count():
+    """`batch_linear` on every linear layer of the network: each row of a product over 1-40 rows
+    equals that row of the product over 64, bit for bit (the plain CPU product does not: its
+    small products and one-column layers sum in another order)."""
+    torch.manual_seed(1)
+    plain_differs = 0
+    for weight, bias in _layer_shapes(PrehensileNet()):
+        with torch.inference_mode():
+            x = torch.randn(64, weight.shape[1])
+            full = network.batch_linear(x, weight, bias)
+            for rows in range(1, 41):
+                start = (7 * rows) % (64 - rows + 1)
+                part = network.batch_linear(x[start:start + rows], weight, bias)
+                assert torch.equal(part, full[start:start + rows]), (tuple(weight.shape), rows)
+                plain = torch.nn.functional.linear(x[start:start + rows], weight, bias)
+                plain_differs += not torch.equal(plain, full[start:start + rows])
+    assert plain_differs > 0  # the padding is what makes them agree
+
+
+def test_a_querys_answer_does_not_depend_on_the_batch_it_runs_in(encoded):
+    """The shipped network's logits for each query, run alone, in batches of 2, 3, 7 and 16 of
+    shuffled companions, and all at once: the same bits (so a cached answer, a lazily asked
+    angle or a merged batch gives every plan its same decisions)."""
+    from tsad_drake.prehensile.checkpoint import load_checkpoint
+
+    net = load_checkpoint(None)[0]
+    xy, feats, ids = encoded
+    objects = int(ids.max()) + 1
+    queried = [0] * len(xy)
+
+    def answers(rows):
+        reach, prob = network.query_scores(net, xy[rows], feats[rows], ids[rows],
+                                           [queried[r] for r in rows], objects)
+        return reach.numpy(), prob.numpy()
+
+    every = np.arange(len(xy))
+    reach, prob = answers(every)
+    order = np.random.default_rng(2).permutation(len(xy))
+    for size in (1, 2, 3, 7, 16):
+        for first in range(0, min(len(xy), 8 * size), size):
+            rows = order[first:first + size]
+            part_reach, part_prob = answers(rows)
+            assert np.array_equal(part_reach, reach[rows]) and np.array_equal(part_prob, prob[rows])

@@ -212,12 +212,56 @@ def _layers(module: nn.Module) -> list[nn.Module]:
     return [module]
 
 
+#: rows and output columns below which a linear layer's product is padded (`batch_linear`)
+MIN_ROWS = MIN_OUTPUTS = 16
+
+
+def batch_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
+    """`F.linear(x, weight, bias)` whose every row is the same whatever the other rows are.
+
+    The CPU matrix product takes another summation order for a small product: fewer than about
+    ten rows, or one output column (a matrix-vector product), so a query's logits moved by up
+    to 2e-6 with the number of queries in its batch, and a decision at its threshold could flip
+    with the batch it happened to run in. Padding the rows to `MIN_ROWS` (zeros) and the output
+    columns to `MIN_OUTPUTS` (zero weights) keeps every product on the path a large one takes
+    (tests/prehensile/test_kernels.py checks every layer's rows at 1-64 rows)."""
+    rows, width = x.numel() // x.shape[-1], weight.shape[0]
+    if rows >= MIN_ROWS and width >= MIN_OUTPUTS:
+        return F.linear(x, weight, bias)
+    if width < MIN_OUTPUTS:
+        weight, bias = _padded_outputs(weight, bias)
+    if rows >= MIN_ROWS:
+        return F.linear(x, weight, bias)[..., :width]
+    flat = torch.zeros(MIN_ROWS, x.shape[-1], dtype=x.dtype)
+    flat[:rows] = x.reshape(rows, x.shape[-1])
+    return F.linear(flat, weight, bias)[:rows, :width].reshape(*x.shape[:-1], width)
+
+
+#: id(weight) -> (weight, bias, their versions, weight and bias padded): the layer's own
+#: tensors are kept, so an id is not reused while its entry lives
+_PADDED: dict[int, tuple] = {}
+
+
+def _padded_outputs(weight: torch.Tensor, bias: torch.Tensor | None
+                    ) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """`weight` and `bias` with zero output rows appended up to MIN_OUTPUTS, memoised while
+    neither tensor changes (training changes them in place: their versions tell)."""
+    versions = (weight._version, None if bias is None else bias._version)
+    entry = _PADDED.get(id(weight))
+    if entry is None or entry[0] is not weight or entry[1] is not bias or entry[2] != versions:
+        pad = MIN_OUTPUTS - weight.shape[0]
+        padded_w = torch.cat([weight.detach(), weight.new_zeros(pad, weight.shape[1])])
+        padded_b = None if bias is None else torch.cat([bias.detach(), bias.new_zeros(pad)])
+        entry = _PADDED[id(weight)] = (weight, bias, versions, padded_w, padded_b)
+    return entry[3], entry[4]
+
+
 def _run(layers: list[nn.Module], x: torch.Tensor) -> torch.Tensor:
-    """`layers` applied to x as their modules apply them (the same functional calls), ReLU in
-    place: x is an intermediate of `predict`, never a caller's tensor."""
+    """`layers` applied to x as their modules apply them (`batch_linear` for the linear ones),
+    ReLU in place: x is an intermediate of `predict`, never a caller's tensor."""
     for layer in layers:
         if isinstance(layer, nn.Linear):
-            x = F.linear(x, layer.weight, layer.bias)
+            x = batch_linear(x, layer.weight, layer.bias)
         elif isinstance(layer, nn.LayerNorm):
             x = F.layer_norm(x, layer.normalized_shape, layer.weight, layer.bias, layer.eps)
         else:
@@ -259,9 +303,9 @@ def predict(net: PrehensileNet, xy: np.ndarray, feats: np.ndarray, ids: np.ndarr
     near2, near1 = kernels.nearest3(xy, c2), kernels.nearest3(xy, c1)
     local = torch.from_numpy(np.concatenate(
         [xy, feats, kernels.interpolate(f2, *near2), kernels.interpolate(f1, *near1)], axis=-1))
-    hidden = _run(layers["point_mlp"], F.linear(local, net.point_local.weight,
-                                                net.point_local.bias)
-                  + F.linear(glob, net.point_global.weight).unsqueeze(1))
+    hidden = _run(layers["point_mlp"], batch_linear(local, net.point_local.weight,
+                                                    net.point_local.bias)
+                  + batch_linear(glob, net.point_global.weight, None).unsqueeze(1))
     hidden_np = hidden.numpy()
     pooled = torch.from_numpy(kernels.segment_max(hidden_np, ids, num_objects))
     role = np.where(feats[..., 1] > 0.5, 0, np.where(feats[..., 2] > 0.5, 1, -1))
