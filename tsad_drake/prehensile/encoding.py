@@ -209,6 +209,38 @@ def query_rng(index: int, angle_index: int) -> np.random.Generator:
     return _QUERY_RNG
 
 
+#: (the queried object's rotated points as bytes, object index, angle index) -> (its points
+#: chosen, as positions among them; the sampling stream's state after choosing them)
+_QUERY_POINTS: dict[tuple, tuple[np.ndarray, dict]] = {}
+
+
+def query_points(rot: np.ndarray, query: np.ndarray, index: int,
+                 angle_index: int) -> tuple[np.random.Generator, np.ndarray]:
+    """The query's sampling stream (`query_rng`) and the queried object's points it keeps
+    (`query`: their indices in the cloud, `rot` the cloud in the query's frame): all of them,
+    or, past MAX_QUERY_POINTS, its outermost points across the approach first (they decide
+    whether it fits the stroke: a random subset can miss a box's corner by millimetres), then
+    the rest at random. Memoised per object view and query, with the stream's state after the
+    draw: an object that has not moved is asked at the same angles in thousands of states."""
+    rng = query_rng(index, angle_index)
+    if len(query) <= MAX_QUERY_POINTS:  # kept wherever they are; nothing drawn
+        return rng, query
+    view = np.ascontiguousarray(rot[query])
+    key = (view.tobytes(), index, angle_index)
+    known = _QUERY_POINTS.get(key)
+    if known is None:
+        if len(_QUERY_POINTS) > 50_000:
+            _QUERY_POINTS.clear()
+        order = np.argsort(view[:, 1])
+        edges = np.concatenate([order[:QUERY_EDGE_POINTS], order[-QUERY_EDGE_POINTS:]])
+        rest = rng.choice(np.delete(np.arange(len(query)), edges),
+                          MAX_QUERY_POINTS - len(edges), replace=False)
+        known = _QUERY_POINTS[key] = (np.concatenate([edges, rest]), _BIT_GENERATOR.state)
+    else:
+        _BIT_GENERATOR.state = known[1]
+    return rng, query[known[0]]
+
+
 def encode_query(cloud: StateCloud, index: int, theta: float,
                  angle_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Input of query (object `index`, approach `theta`).
@@ -227,15 +259,7 @@ def encode_query(cloud: StateCloud, index: int, theta: float,
     rot, in_corridor, query, corridor, others = kernels.window_split(
         cloud.xy, cloud.ids, float(cx), float(cy), c, s, index,
         (CROP_BACK, CROP_FRONT, CROP_HALF_WIDTH), cloud.half_width, cloud.finger_reach)
-    rng = query_rng(index, angle_index)
-    if len(query) > MAX_QUERY_POINTS:  # the queried object's points are kept wherever they are
-        # its outermost points across the approach first (they decide whether it fits the
-        # stroke: a random subset can miss a box's corner by millimetres), then the rest at random
-        order = np.argsort(rot[query, 1])
-        edges = np.concatenate([order[:QUERY_EDGE_POINTS], order[-QUERY_EDGE_POINTS:]])
-        rest = rng.choice(np.delete(np.arange(len(query)), edges),
-                          MAX_QUERY_POINTS - len(edges), replace=False)
-        query = query[np.concatenate([edges, rest])]
+    rng, query = query_points(rot, query, index, angle_index)
     room = NUM_POINTS - len(query)
     # corridor points first (one per object before the rest, should they not all fit): an
     # object that reaches into the corridor by a few points must not lose them to sampling

@@ -53,19 +53,23 @@ def farthest_point_sampling(xy: np.ndarray, count: int) -> np.ndarray:
     b, n = xy.shape[0], xy.shape[1]
     idx = np.zeros((b, count), dtype=np.int64)
     dist = np.empty(n, dtype=np.float32)
+    px = np.empty(n, dtype=np.float32)
+    py = np.empty(n, dtype=np.float32)
     for s in range(b):
         p = xy[s]
         norms = _norms(p)
+        px[:] = p[:, 0]
+        py[:] = p[:, 1]
         dist[:] = np.inf
         far = 0
         for k in range(count):
             idx[s, k] = far
-            fx, fy, ff = p[far, 0], p[far, 1], norms[far]
-            best, best_j = np.float32(-1.0), 0
-            for j in range(n):
-                d = _d2(fx, fy, ff, p[j, 0], p[j, 1], norms[j])
-                if d < dist[j]:
-                    dist[j] = d
+            fx, fy, ff = px[far], py[far], norms[far]
+            for j in range(n):  # the distances first (a loop the compiler vectorises)
+                d = _d2(fx, fy, ff, px[j], py[j], norms[j])
+                dist[j] = min(d, dist[j])
+            best, best_j = dist[0], 0
+            for j in range(1, n):
                 if dist[j] > best:
                     best, best_j = dist[j], j
             far = best_j
