@@ -53,6 +53,7 @@ def farthest_point_sampling(xy: np.ndarray, count: int) -> np.ndarray:
     b, n = xy.shape[0], xy.shape[1]
     idx = np.zeros((b, count), dtype=np.int64)
     dist = np.empty(n, dtype=np.float32)
+    bits = dist.view(np.int32)
     px = np.empty(n, dtype=np.float32)
     py = np.empty(n, dtype=np.float32)
     for s in range(b):
@@ -68,11 +69,14 @@ def farthest_point_sampling(xy: np.ndarray, count: int) -> np.ndarray:
             for j in range(n):  # the distances first (a loop the compiler vectorises)
                 d = _d2(fx, fy, ff, px[j], py[j], norms[j])
                 dist[j] = min(d, dist[j])
-            best, best_j = dist[0], 0
+            # the farthest: distances are >= 0, so their bits order as integers, and an
+            # integer maximum vectorises; then the first point at it
+            most = bits[0]
             for j in range(1, n):
-                if dist[j] > best:
-                    best, best_j = dist[j], j
-            far = best_j
+                most = max(most, bits[j])
+            far = 0
+            while bits[far] != most:
+                far += 1
     return idx
 
 
@@ -84,18 +88,27 @@ def ball_query(xy: np.ndarray, centres: np.ndarray, radius2: np.float32,
     first one."""
     b, m, n = xy.shape[0], centres.shape[1], xy.shape[1]
     out = np.zeros((b, m, count), dtype=np.int64)
+    dist = np.empty(n, dtype=np.float32)
+    px = np.empty(n, dtype=np.float32)
+    py = np.empty(n, dtype=np.float32)
+    slots = np.empty(count + 1, dtype=np.int64)
     for s in range(b):
         pn = _norms(xy[s])
         cn = _norms(centres[s])
+        px[:] = xy[s, :, 0]
+        py[:] = xy[s, :, 1]
         for c in range(m):
             cx, cy, cc = centres[s, c, 0], centres[s, c, 1], cn[c]
+            for j in range(n):  # the distances first (a loop the compiler vectorises)
+                dist[j] = _d2(cx, cy, cc, px[j], py[j], pn[j])
             filled = 0
-            for j in range(n):
-                if _d2(cx, cy, cc, xy[s, j, 0], xy[s, j, 1], pn[j]) <= radius2:
-                    out[s, c, filled] = j
-                    filled += 1
-                    if filled == count:
-                        break
+            for j in range(n):  # every point written, the count moved only by one inside
+                slots[filled] = j
+                filled += dist[j] <= radius2
+                if filled == count:
+                    break
+            for k in range(filled):
+                out[s, c, k] = slots[k]
             # a centre is one of the points, so filled >= 1 for the network's own centres
             for k in range(filled, count):
                 out[s, c, k] = out[s, c, 0]
@@ -105,42 +118,39 @@ def ball_query(xy: np.ndarray, centres: np.ndarray, radius2: np.float32,
 @numba.njit(**_JIT)
 def nearest3(xy: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(squared distances (B, N, k), indices (B, N, k)) of the k = min(3, M) nearest centres
-    (B, M, 2) to each point of xy (B, N, 2), ascending; ties go to the lowest index. One pass per
-    point keeps the k best so far; a centre displaces one only when strictly nearer, so an equal
-    distance seen later (a higher index) ranks after it, as repeated first-minimum passes rank
-    it."""
+    (B, M, 2) to each point of xy (B, N, 2), ascending; ties go to the lowest index. Per point, k
+    first-minimum passes, each taking its centre out of the next: the distances are >= 0, so
+    their float32 bits order as integers, and an integer minimum is a loop the compiler
+    vectorises (a float one it may not reorder), where keeping the best three in one pass
+    mispredicted a branch at every new best."""
     b, n, m = xy.shape[0], xy.shape[1], centres.shape[1]
     k = min(3, m)
     values = np.empty((b, n, k), dtype=np.float32)
     indices = np.empty((b, n, k), dtype=np.int64)
-    best = np.empty(k, dtype=np.float32)
-    best_i = np.empty(k, dtype=np.int64)
-    dist = np.empty(m, dtype=np.float32)
+    table = np.empty((n, m), dtype=np.float32)
+    bits = table.view(np.int32)
+    taken = np.int32(0x7FFFFFFF)  # above every distance's bits, +inf's included
     for s in range(b):
         pn = _norms(xy[s])
         cn = _norms(centres[s])
         cx, cy = centres[s, :, 0].copy(), centres[s, :, 1].copy()
-        for i in range(n):
+        for i in range(n):  # every distance first (a loop the compiler vectorises)
             px, py, pp = xy[s, i, 0], xy[s, i, 1], pn[i]
-            for c in range(m):  # every distance first (a loop the compiler vectorises)
-                dist[c] = _d2(px, py, pp, cx[c], cy[c], cn[c])
-            for r in range(k):
-                best[r] = np.inf
-                best_i[r] = -1
+            row = table[i]
             for c in range(m):
-                d = dist[c]
-                if best_i[k - 1] >= 0 and not d < best[k - 1]:
-                    continue
-                r = k - 1  # insert d at the first slot it is strictly nearer than
-                while r > 0 and (best_i[r - 1] < 0 or d < best[r - 1]):
-                    best[r] = best[r - 1]
-                    best_i[r] = best_i[r - 1]
-                    r -= 1
-                best[r] = d
-                best_i[r] = c
+                row[c] = _d2(px, py, pp, cx[c], cy[c], cn[c])
+        for i in range(n):
+            row = bits[i]
             for r in range(k):
-                values[s, i, r] = best[r]
-                indices[s, i, r] = best_i[r]
+                least = taken
+                for c in range(m):
+                    least = min(least, row[c])
+                for c in range(m):
+                    if row[c] == least:
+                        values[s, i, r] = table[i, c]
+                        indices[s, i, r] = c
+                        row[c] = taken
+                        break
     return values, indices
 
 
