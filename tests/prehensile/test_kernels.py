@@ -256,10 +256,10 @@ def test_interpolation_and_max_pools_match_their_torch_forms():
 
 
 @pytest.mark.parametrize("weights", ["untrained", "shipped"])
-def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights, monkeypatch):
-    """`predict` (compiled groups, functional layers, ReLU in place) answers what the modules'
-    forward pass answers: bit for bit with its small products unpadded, at the planners' batch
-    sizes and at a large one, and within 1e-5 with them padded (`batch_linear`)."""
+def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights):
+    """`predict` (compiled steps, functional per-point layers, row-by-row heads) answers what
+    the modules' forward pass answers, within 1e-5, at the planners' batch sizes and at a large
+    one; the probabilities as `query_scores` gives them, within 1e-6."""
     from tsad_drake.prehensile.checkpoint import load_checkpoint
 
     torch.manual_seed(0)
@@ -270,37 +270,33 @@ def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights, monkeyp
         with torch.inference_mode():
             reach, block = net(torch.from_numpy(xy[:size]), torch.from_numpy(feats[:size]),
                                torch.from_numpy(ids[:size]), objects)
-            padded = network.predict(net, xy[:size], feats[:size], ids[:size].copy(), objects)
-            with monkeypatch.context() as m:
-                m.setattr(network, "MIN_ROWS", 0)
-                m.setattr(network, "MIN_OUTPUTS", 0)
-                plain = network.predict(net, xy[:size], feats[:size], ids[:size].copy(), objects)
-        assert torch.equal(reach, plain[0]) and torch.equal(block, plain[1])
-        assert torch.allclose(reach, padded[0], atol=1e-5)
-        assert torch.allclose(block, padded[1], atol=1e-5)
+            fast_reach, fast_block = network.predict(net, xy[:size], feats[:size],
+                                                     ids[:size].copy(), objects)
+            _, prob = network.query_scores(net, xy[:size], feats[:size], ids[:size],
+                                           [-5] * size, objects)
+        assert torch.allclose(reach, fast_reach, atol=1e-5)
+        assert torch.allclose(block, fast_block, atol=1e-5)
+        present = network.object_presence(torch.from_numpy(ids[:size]), objects)
+        assert torch.allclose(prob, torch.where(present, torch.sigmoid(block), 0.0), atol=1e-6)
 
 
-def _layer_shapes(net: PrehensileNet) -> list[tuple[torch.Tensor, torch.Tensor | None]]:
-    return [(m.weight, m.bias) for m in net.modules() if isinstance(m, torch.nn.Linear)]
-
-
-def test_every_layers_rows_are_the_same_at_any_row_count():
-    """`batch_linear` on every linear layer of the network: each row of a product over 1-40 rows
-    equals that row of the product over 64, bit for bit (the plain CPU product does not: its
-    small products and one-column layers sum in another order)."""
+def test_row_kernels_are_the_torch_layers_row_by_row():
+    """`kernels.dense` and `kernels.layer_norm` (then ReLU) against torch's layers on every
+    per-query layer shape of the network, within 1e-5; each row's bits the same computed alone
+    or with 63 others."""
     torch.manual_seed(1)
-    plain_differs = 0
-    for weight, bias in _layer_shapes(PrehensileNet()):
+    net = PrehensileNet()
+    for name in ("global_mlp", "point_global", "reach_head", "object_head"):
+        module = getattr(net, name)
+        ops = network._row_ops(network._layers(module))
+        x = torch.randn(64, ops[0][1].shape[0])
         with torch.inference_mode():
-            x = torch.randn(64, weight.shape[1])
-            full = network.batch_linear(x, weight, bias)
-            for rows in range(1, 41):
-                start = (7 * rows) % (64 - rows + 1)
-                part = network.batch_linear(x[start:start + rows], weight, bias)
-                assert torch.equal(part, full[start:start + rows]), (tuple(weight.shape), rows)
-                plain = torch.nn.functional.linear(x[start:start + rows], weight, bias)
-                plain_differs += not torch.equal(plain, full[start:start + rows])
-    assert plain_differs > 0  # the padding is what makes them agree
+            expected = module(x).numpy()
+        together = network._rows(ops, x.numpy())
+        assert np.allclose(together, expected, atol=1e-5), name
+        for row in (0, 17, 63):
+            alone = network._rows(ops, x.numpy()[row:row + 1])
+            assert np.array_equal(alone[0], together[row]), name
 
 
 def test_a_querys_answer_does_not_depend_on_the_batch_it_runs_in(encoded):

@@ -1,15 +1,16 @@
-"""Weightless steps compiled (numba): the network's (FPS, ball query, groups, nearest centres,
-interpolation, pools) and the encoding's (crop and corridor split, corridor order, hull test,
-features).
+"""Compiled steps (numba): the network's (FPS, ball query, groups, nearest centres,
+interpolation, pools, per-query layers) and the encoding's (crop and corridor split, corridor
+order, hull test, features).
 
-None of them has weights. In torch the neighbourhood steps were about half of a forward pass at
-the planners' batch sizes (1-8 queries): FPS is `count` sequential steps, the ball query a
-cumulative count and a scatter over an (M, N) matrix, the nearest three three min passes; each a
-few operations whose per-call overhead dwarfs the arithmetic. Here each is one pass over the
-points. Interpolation, groups and the max pools run here only without a gradient (planning:
-`network.predict`); training keeps their torch forms. The encoding's steps were about two thirds
-of an encoded query's 290 us (NumPy masks and gathers over the whole cloud); its random sampling
-stays NumPy's (`encoding.query_rng`).
+In torch the neighbourhood steps were about half of a forward pass at the planners' batch sizes
+(1-8 queries): FPS is `count` sequential steps, the ball query a cumulative count and a scatter
+over an (M, N) matrix, the nearest three three min passes; each a few operations whose per-call
+overhead dwarfs the arithmetic. Here each is one pass over the points. Interpolation, groups and
+the max pools run here only without a gradient (planning: `network.predict`); training keeps
+their torch forms. The per-query layers (`dense`, `layer_norm`: the global MLP and the heads, a
+few hundred multiply-adds a row) run row by row, so that a query's answer does not depend on its
+batch. The encoding's steps were about two thirds of an encoded query's 290 us (NumPy masks and
+gathers over the whole cloud); its random sampling stays NumPy's (`encoding.query_rng`).
 
 Squared distances are rounded exactly as the torch form rounded them on CPU (|a|^2 + |b|^2 -
 2 a.b in float32 by one `baddbmm`, the dot product a fused multiply-add; checked bit for bit in
@@ -206,6 +207,76 @@ def segment_max(values: np.ndarray, ids: np.ndarray, num_segments: int) -> np.nd
                 for ch in range(c):
                     if values[s, i, ch] > out[s, g, ch]:
                         out[s, g, ch] = values[s, i, ch]
+    return out
+
+
+@numba.njit(**_JIT)
+def dense(x: np.ndarray, weight_t: np.ndarray, bias: np.ndarray, relu: bool) -> np.ndarray:
+    """(M, N) x (M, K) times weight_t (K, N) plus bias (N,) (then ReLU), every row summed alone
+    over k in order in float64 and rounded once: a row's result does not depend on the other
+    rows nor on the machine's matrix-product kernels. For the network's per-query layers (the
+    heads, the global MLP), whose products are too small for a matrix-product call to pay its
+    overhead."""
+    m, k = x.shape
+    n = weight_t.shape[1]
+    out = np.empty((m, n), dtype=np.float32)
+    acc = np.empty(n, dtype=np.float64)
+    for r in range(m):
+        for j in range(n):
+            acc[j] = bias[j]
+        for q in range(k):
+            xv = np.float64(x[r, q])
+            row = weight_t[q]
+            for j in range(n):  # outputs innermost: independent sums, vectorised
+                acc[j] += xv * np.float64(row[j])
+        for j in range(n):
+            v = np.float32(acc[j])
+            out[r, j] = v if not relu or v > np.float32(0.0) else np.float32(0.0)
+    return out
+
+
+@numba.njit(**_JIT)
+def layer_norm(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, eps: float,
+               relu: bool) -> np.ndarray:
+    """(M, N) LayerNorm of each row of x (M, N) (mean and biased variance in float64) with
+    weight and bias (N,) (then ReLU); rows alone, as `dense`."""
+    m, n = x.shape
+    out = np.empty((m, n), dtype=np.float32)
+    for r in range(m):
+        mean = 0.0
+        for j in range(n):
+            mean += np.float64(x[r, j])
+        mean /= n
+        var = 0.0
+        for j in range(n):
+            d = np.float64(x[r, j]) - mean
+            var += d * d
+        scale = 1.0 / np.sqrt(var / n + eps)
+        for j in range(n):
+            v = np.float32((np.float64(x[r, j]) - mean) * scale * np.float64(weight[j])
+                           + np.float64(bias[j]))
+            out[r, j] = v if not relu or v > np.float32(0.0) else np.float32(0.0)
+    return out
+
+
+@numba.njit(**_JIT)
+def present_sigmoid(logits: np.ndarray, ids: np.ndarray) -> np.ndarray:
+    """(B, S) sigmoid of logits (B, S) (in float64, rounded once) where object s has a point
+    among ids (B, N) of that query, else 0; element by element, so the same bits wherever an
+    element sits in the array (torch's vectorised sigmoid rounds its tail elements another way,
+    and where the tail falls moved with the batch)."""
+    b, num = logits.shape
+    out = np.zeros((b, num), dtype=np.float32)
+    present = np.zeros(num, dtype=np.bool_)
+    for q in range(b):
+        present[:] = False
+        for p in range(ids.shape[1]):
+            j = ids[q, p]
+            if j >= 0 and j < num:
+                present[j] = True
+        for j in range(num):
+            if present[j]:
+                out[q, j] = np.float32(1.0 / (1.0 + np.exp(-np.float64(logits[q, j]))))
     return out
 
 

@@ -212,56 +212,45 @@ def _layers(module: nn.Module) -> list[nn.Module]:
     return [module]
 
 
-#: rows and output columns below which a linear layer's product is padded (`batch_linear`)
-MIN_ROWS = MIN_OUTPUTS = 16
+def _row_ops(layers: list[nn.Module]) -> list[tuple]:
+    """`layers` as `kernels.dense` and `kernels.layer_norm` run them: ("dense", weight
+    transposed, bias, relu) per Linear, ("norm", weight, bias, eps, relu) per LayerNorm, each
+    ReLU folded into the layer before it (float32 NumPy copies of the parameters)."""
+    ops: list[list] = []
+    for layer in layers:
+        if isinstance(layer, nn.Linear):
+            weight = layer.weight.detach().numpy()
+            bias = (layer.bias.detach().numpy() if layer.bias is not None
+                    else np.zeros(weight.shape[0], dtype=np.float32))
+            ops.append(["dense", np.ascontiguousarray(weight.T), bias.copy(), False])
+        elif isinstance(layer, nn.LayerNorm):
+            ops.append(["norm", layer.weight.detach().numpy().copy(),
+                        layer.bias.detach().numpy().copy(), float(layer.eps), False])
+        elif isinstance(layer, nn.ReLU) and ops:
+            ops[-1][-1] = True
+        else:
+            raise ValueError(f"no row form for {layer!r} here")
+    return [tuple(op) for op in ops]
 
 
-def batch_linear(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor | None) -> torch.Tensor:
-    """`F.linear(x, weight, bias)` whose every row is the same whatever the other rows are.
-
-    The CPU matrix product takes another summation order for a small product: fewer than about
-    ten rows, or one output column (a matrix-vector product), so a query's logits moved by up
-    to 2e-6 with the number of queries in its batch, and a decision at its threshold could flip
-    with the batch it happened to run in. Padding the rows to `MIN_ROWS` (zeros) and the output
-    columns to `MIN_OUTPUTS` (zero weights) keeps every product on the path a large one takes
-    (tests/prehensile/test_kernels.py checks every layer's rows at 1-64 rows)."""
-    rows, width = x.numel() // x.shape[-1], weight.shape[0]
-    if rows >= MIN_ROWS and width >= MIN_OUTPUTS:
-        return F.linear(x, weight, bias)
-    if width < MIN_OUTPUTS:
-        weight, bias = _padded_outputs(weight, bias)
-    if rows >= MIN_ROWS:
-        return F.linear(x, weight, bias)[..., :width]
-    flat = torch.zeros(MIN_ROWS, x.shape[-1], dtype=x.dtype)
-    flat[:rows] = x.reshape(rows, x.shape[-1])
-    return F.linear(flat, weight, bias)[:rows, :width].reshape(*x.shape[:-1], width)
-
-
-#: id(weight) -> (weight, bias, their versions, weight and bias padded): the layer's own
-#: tensors are kept, so an id is not reused while its entry lives
-_PADDED: dict[int, tuple] = {}
-
-
-def _padded_outputs(weight: torch.Tensor, bias: torch.Tensor | None
-                    ) -> tuple[torch.Tensor, torch.Tensor | None]:
-    """`weight` and `bias` with zero output rows appended up to MIN_OUTPUTS, memoised while
-    neither tensor changes (training changes them in place: their versions tell)."""
-    versions = (weight._version, None if bias is None else bias._version)
-    entry = _PADDED.get(id(weight))
-    if entry is None or entry[0] is not weight or entry[1] is not bias or entry[2] != versions:
-        pad = MIN_OUTPUTS - weight.shape[0]
-        padded_w = torch.cat([weight.detach(), weight.new_zeros(pad, weight.shape[1])])
-        padded_b = None if bias is None else torch.cat([bias.detach(), bias.new_zeros(pad)])
-        entry = _PADDED[id(weight)] = (weight, bias, versions, padded_w, padded_b)
-    return entry[3], entry[4]
+def _rows(ops: list[tuple], x: np.ndarray) -> np.ndarray:
+    """`ops` (`_row_ops`) applied to the last axis of x, every row alone (`kernels.dense`)."""
+    lead = x.shape[:-1]
+    x = np.ascontiguousarray(x.reshape(-1, x.shape[-1]), dtype=np.float32)
+    for op in ops:
+        if op[0] == "dense":
+            x = kernels.dense(x, op[1], op[2], op[3])
+        else:
+            x = kernels.layer_norm(x, op[1], op[2], op[3], op[4])
+    return x.reshape(*lead, x.shape[-1])
 
 
 def _run(layers: list[nn.Module], x: torch.Tensor) -> torch.Tensor:
-    """`layers` applied to x as their modules apply them (`batch_linear` for the linear ones),
-    ReLU in place: x is an intermediate of `predict`, never a caller's tensor."""
+    """`layers` applied to x as their modules apply them (the same functional calls), ReLU in
+    place: x is an intermediate of `predict`, never a caller's tensor."""
     for layer in layers:
         if isinstance(layer, nn.Linear):
-            x = batch_linear(x, layer.weight, layer.bias)
+            x = F.linear(x, layer.weight, layer.bias)
         elif isinstance(layer, nn.LayerNorm):
             x = F.layer_norm(x, layer.normalized_shape, layer.weight, layer.bias, layer.eps)
         else:
@@ -281,40 +270,53 @@ def _set_abstraction(sa: SetAbstraction, layers: list[nn.Module], xy: np.ndarray
     return centres, pooled.numpy()
 
 
+def _versions(net: nn.Module) -> tuple[int, ...]:
+    return tuple(p._version for p in net.parameters())
+
+
 def predict(net: PrehensileNet, xy: np.ndarray, feats: np.ndarray, ids: np.ndarray,
             num_objects: int) -> tuple[torch.Tensor, torch.Tensor]:
-    """`net.forward` without a gradient, bit for bit (tests/prehensile/test_kernels.py), on
-    NumPy inputs (xy (B, N, 2) and feats (B, N, F) float32, ids (B, N) int64): the planners'
-    forward pass. The neighbourhood steps, groups, interpolation and pools are compiled
-    (`kernels`), the layers are called as functions with ReLU in place: at the planners' batch
-    sizes (1-8 queries) the modules' call overhead and the intermediate tensors were a large part
-    of a pass."""
-    layers = net.__dict__.get("_predict_layers")
-    if layers is None:  # the layer objects (their parameters are read at each call)
-        layers = net.__dict__["_predict_layers"] = {
-            name: _layers(module) for name, module in (
-                ("sa1", net.sa1.mlp), ("sa2", net.sa2.mlp), ("global_mlp", net.global_mlp),
-                ("raw_mlp", net.raw_mlp), ("point_mlp", net.point_mlp),
-                ("reach_head", net.reach_head), ("object_head", net.object_head))}
-    c1, f1 = _set_abstraction(net.sa1, layers["sa1"], xy, feats)
-    c2, f2 = _set_abstraction(net.sa2, layers["sa2"], c1, f1)
-    glob = _run(layers["global_mlp"], torch.from_numpy(np.concatenate([c2, f2], axis=-1)))
-    glob = glob.amax(dim=1)  # (B, G)
+    """`net.forward` without a gradient on NumPy inputs (xy (B, N, 2) and feats (B, N, F)
+    float32, ids (B, N) int64): the planners' forward pass.
+
+    The neighbourhood steps, groups, interpolation and pools are compiled (`kernels`, bit for
+    bit the torch steps); the per-point layers are torch's functional calls with ReLU in place;
+    the per-query layers (global MLP, heads) run row by row (`kernels.dense`, summed in float64:
+    within 1e-5 of the modules, tests/prehensile/test_kernels.py). Each query's answer is the
+    same in any batch: a small CPU matrix product sums in another order than a large one, and a
+    query's logits moved by up to 2e-6 with its batch-mates when the heads were matrix products.
+    At the planners' batch sizes (1-8 queries) the modules' call overhead was a large part of a
+    pass."""
+    cache = net.__dict__.get("_predict_layers")
+    if cache is None or cache["versions"] != _versions(net):  # parameters changed: rebuild
+        cache = net.__dict__["_predict_layers"] = {
+            "versions": _versions(net),
+            **{name: _layers(module) for name, module in (
+                ("sa1", net.sa1.mlp), ("sa2", net.sa2.mlp), ("raw_mlp", net.raw_mlp),
+                ("point_mlp", net.point_mlp))},
+            **{name: _row_ops(_layers(module)) for name, module in (
+                ("global_mlp", net.global_mlp), ("point_global", net.point_global),
+                ("reach_head", net.reach_head), ("object_head", net.object_head))}}
+    c1, f1 = _set_abstraction(net.sa1, cache["sa1"], xy, feats)
+    c2, f2 = _set_abstraction(net.sa2, cache["sa2"], c1, f1)
+    glob = _rows(cache["global_mlp"], np.concatenate([c2, f2], axis=-1)).max(axis=1)  # (B, G)
     near2, near1 = kernels.nearest3(xy, c2), kernels.nearest3(xy, c1)
     local = torch.from_numpy(np.concatenate(
         [xy, feats, kernels.interpolate(f2, *near2), kernels.interpolate(f1, *near1)], axis=-1))
-    hidden = _run(layers["point_mlp"], batch_linear(local, net.point_local.weight,
-                                                    net.point_local.bias)
-                  + batch_linear(glob, net.point_global.weight, None).unsqueeze(1))
+    hidden = _run(cache["point_mlp"], F.linear(local, net.point_local.weight,
+                                               net.point_local.bias)
+                  + torch.from_numpy(_rows(cache["point_global"], glob)).unsqueeze(1))
     hidden_np = hidden.numpy()
-    pooled = torch.from_numpy(kernels.segment_max(hidden_np, ids, num_objects))
+    pooled = kernels.segment_max(hidden_np, ids, num_objects)  # (B, S, H)
     role = np.where(feats[..., 1] > 0.5, 0, np.where(feats[..., 2] > 0.5, 1, -1))
-    query, walls = torch.from_numpy(kernels.segment_max(hidden_np, role, 2)).unbind(1)
-    raw_points = _run(layers["raw_mlp"], torch.from_numpy(np.concatenate([xy, feats], axis=-1)))
-    raw = torch.from_numpy(kernels.segment_max(raw_points.numpy(), role, 2)).flatten(1)
-    reach = _run(layers["reach_head"], torch.cat([glob, query, walls, raw], dim=-1)).squeeze(-1)
-    per_object = torch.cat([pooled, query.unsqueeze(1).expand_as(pooled)], dim=-1)
-    return reach, _run(layers["object_head"], per_object).squeeze(-1)
+    query_walls = kernels.segment_max(hidden_np, role, 2)
+    raw_points = _run(cache["raw_mlp"], torch.from_numpy(np.concatenate([xy, feats], axis=-1)))
+    raw = kernels.segment_max(raw_points.numpy(), role, 2).reshape(len(xy), -1)
+    reach = _rows(cache["reach_head"], np.concatenate(
+        [glob, query_walls.reshape(len(xy), -1), raw], axis=-1))[:, 0]
+    query = np.broadcast_to(query_walls[:, :1], pooled.shape)
+    block = _rows(cache["object_head"], np.concatenate([pooled, query], axis=-1))[..., 0]
+    return torch.from_numpy(reach), torch.from_numpy(np.ascontiguousarray(block))
 
 
 def query_scores(net: PrehensileNet, xy, feats, ids, queried: list[int],
@@ -329,6 +331,4 @@ def query_scores(net: PrehensileNet, xy, feats, ids, queried: list[int],
         ids[ids == np.asarray(queried, dtype=np.int64)[:, None]] = -1
         reach, block = predict(net, np.ascontiguousarray(xy, dtype=np.float32),
                                np.ascontiguousarray(feats, dtype=np.float32), ids, num_objects)
-        ids_t = torch.from_numpy(ids)
-        prob = torch.where(object_presence(ids_t, num_objects), torch.sigmoid(block), 0.0)
-        return reach, prob
+        return reach, torch.from_numpy(kernels.present_sigmoid(block.numpy(), ids))
