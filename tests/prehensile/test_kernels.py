@@ -3,8 +3,10 @@
 The references are the forms the network and the encoding used before the kernels (one batched
 matrix product for the squared distances, argmax FPS, first points inside each ball, three min
 passes for the nearest centres; the encoding's NumPy masks, sampling and features; the network's
-modules): the kernels must give their indices, distances, inputs and answers bit for bit, so the
-trained network's answers are the ones it was trained and benchmarked with."""
+modules): the kernels must give their indices, distances and inputs bit for bit, so the trained
+network sees what it was trained on. The planners' pass (`network.predict`) runs the per-query
+layers row by row in float64 sums: within 1e-5 of the modules, and the same bits for a query in
+any batch."""
 
 import types
 
@@ -278,6 +280,25 @@ def test_the_planners_forward_pass_is_the_modules_pass(encoded, weights):
         assert torch.allclose(block, fast_block, atol=1e-5)
         present = network.object_presence(torch.from_numpy(ids[:size]), objects)
         assert torch.allclose(prob, torch.where(present, torch.sigmoid(block), 0.0), atol=1e-6)
+
+
+def test_the_planners_pass_follows_weights_changed_in_place(encoded):
+    """`predict` copies the per-query layers' parameters; a change made in place (a training
+    step, `load_state_dict`) must reach its answers, not the stale copies."""
+    torch.manual_seed(3)
+    net = PrehensileNet().eval()
+    xy, feats, ids = (a[:3] for a in encoded)
+    objects = int(encoded[2].max()) + 1
+    with torch.inference_mode():
+        before = network.predict(net, xy, feats, ids.copy(), objects)[0]
+    with torch.no_grad():
+        net.reach_head[-1].bias.add_(1.0)
+    with torch.inference_mode():
+        after = network.predict(net, xy, feats, ids.copy(), objects)[0]
+        expected = net(torch.from_numpy(xy), torch.from_numpy(feats), torch.from_numpy(ids),
+                       objects)[0]
+    assert torch.allclose(after, before + 1.0, atol=1e-5)
+    assert torch.allclose(after, expected, atol=1e-5)
 
 
 def test_row_kernels_are_the_torch_layers_row_by_row():
