@@ -102,10 +102,14 @@ class TSADConfig:
     empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
     max_sub_searches: int = 12  #: sub-MCTS runs before giving up
     #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
-    #: search, so the same seed gives the same plan on any machine (held-out realistic rows,
-    #: 2026-12-04: 0.7-2.4 ms an iteration on the geometric model, 4-9 ms on the network, two
-    #: bench processes on 2 cores; a five-blocker scene needs about 9,000 for a first plan)
-    iteration_budget: int = 20_000
+    #: search, so the same seed gives the same plan on any machine. 8,000 (20,000 until
+    #: 2026-12-07): on tuning seeds 0-29 of scenarios 2-3 (realistic sensing, 8 frames, `cluster`)
+    #: 5 of 291 rounds with a plan found their first one after 8,000 iterations (8,100-14,116, at
+    #: the fifth angle tried or in a restart); the closed loop executes a failed round's furthest
+    #: attempt's first sub-search and observes again, and with 8,000 success went 25 -> 26 and
+    #: 28 -> 29 of 30 on the network (25 and 29 either way on the geometric model) with the worst
+    #: episode 127 -> 53 s and 102 -> 43 s (docs/benchmark.md)
+    iteration_budget: int = 8_000
     #: s, wall-clock safety stop of one plan_tsad call: the counts above end a search; a call the
     #: clock stops is a failure (`Plan.timed_out`, "timed out: ..."), never the plan it had so far
     safety_stop_s: float = 300.0

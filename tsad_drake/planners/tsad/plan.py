@@ -167,6 +167,8 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
                     extras["shorten"] += searched - len(plan.actions)
                 found.append(plan)
                 if len(found) == 1:
+                    first_plan = {"attempt": attempt, "angle_rank": j,
+                                  "iterations": budget.iterations}
                     budget.max_iterations = min(budget.max_iterations,
                                                 budget.iterations + config.improve_iterations)
                 break
@@ -182,6 +184,9 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
     chosen = min(found, key=lambda p: len(p.actions)) if found else best  # the first of the shortest
     if found:
         chosen.stats["complete_plans"] = [len(p.actions) for p in found]
+        #: when the first complete plan came: the attempt (0, or a restart), the rank of its
+        #: angle among the candidates (0: theta*) and the call's iterations spent by then
+        chosen.stats["first_plan"] = first_plan
     chosen.stats["iterations_total"] = budget.iterations
     chosen.stats["extras_used"] = dict(extras)
     chosen.planning_time_s = budget.elapsed  # every attempt, not just the chosen one
