@@ -2,14 +2,17 @@
 print every sub-search that ended without one, with its root's rearrangement set R_{theta*,s}.
 
     python tools/dead_ends.py --scenario 3 --seed 1001 [--feasibility net] [--set field=value]
-        [--limit 5] [--optimal]
+        [--limit 5] [--optimal] [--exhaustive]
 
 Per dead end: iterations, root children, then each member of R with its blockers per approach
 angle, and each of those blockers with its pickability and its own blockers, on the search's model
 and on its rollout model (`TSADExtras.fast_rollouts`; a disagreement means rollouts judge another
 problem than the tree). `--optimal` also runs the `optimal` planner (IDA*, pruned to relevant
 objects and a few cells each) from the first dead end's root on both models: "no plan" there
-suggests the root itself has no solution.
+suggests the root itself has no solution. `--exhaustive` enumerates every feasible action
+sequence from the first dead end's root to the sub-search's depth d_max (breadth first, distinct
+states) on both models: no terminal state there proves the sub-search could not have found one
+(the dead end is the problem's, not the tree search's); one found is a miss of the search.
 """
 
 from __future__ import annotations
@@ -23,10 +26,13 @@ from tsad_drake.perception.sensor import sensor_config
 from tsad_drake.pipeline import RaycastObserver, make_feasibility
 from tsad_drake.planners.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planners.tsad.sub_search import SubSearch
+from tsad_drake.planning.actions import object_actions
 from tsad_drake.planning.interface import FeasibilityModel
+from tsad_drake.planning.plan_check import rearrangement_set
+from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.types import PlanningState
+from tsad_drake.planning.types import Action, PlanningState, Workspace
 from tsad_drake.scenes import generate_scenario
 
 
@@ -47,6 +53,35 @@ def describe(state: PlanningState, model: FeasibilityModel, k: int) -> list[str]
     return lines
 
 
+def terminal_within(root: PlanningState, model: FeasibilityModel, workspace: Workspace, k: int,
+                    depth: int) -> tuple[list[int], list[Action] | None]:
+    """Breadth-first over every feasible pick-and-place from `root` (distinct states) to `depth`
+    actions: the number of new non-terminal states at each depth, and the first action sequence
+    reaching a terminal state of the sub-search at angle index k (R_{k} lost a member and gained
+    none), or None when no sequence of at most `depth` actions reaches one."""
+    goal = rearrangement_set(root, model, k)
+    theta = float(workspace.approach_angles[k])
+    frontier, seen, counts = [(root, [])], {root.key()}, []
+    for _ in range(depth):
+        grown = []
+        for state, path in frontier:
+            for i, obj in enumerate(state.objects):
+                if obj.name == state.target:
+                    continue
+                for action in object_actions(model, state, i, workspace, theta):
+                    nxt = simulate_pick_place(state, action)
+                    if nxt.key() in seen:
+                        continue
+                    seen.add(nxt.key())
+                    members = rearrangement_set(nxt, model, k)
+                    if members <= goal and goal - members:
+                        return counts, path + [action]
+                    grown.append((nxt, path + [action]))
+        counts.append(len(grown))
+        frontier = grown
+    return counts, None
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default="3")
@@ -60,6 +95,9 @@ def main() -> None:
     parser.add_argument("--limit", type=int, default=5, help="dead ends described in full")
     parser.add_argument("--optimal", action="store_true",
                         help="run IDA* from the first dead end's root on both models")
+    parser.add_argument("--exhaustive", action="store_true",
+                        help="enumerate every action sequence to d_max from the first dead end's "
+                             "root on both models (slow on the network)")
     args = parser.parse_args()
     overrides, defaults = {}, make_config("tsad")
     for item in args.set:
@@ -94,6 +132,14 @@ def main() -> None:
         for m in {id(search.feasibility): search.feasibility,
                   id(search.rollout_model): search.rollout_model}.values():
             print("\n".join(describe(root, m, k)))
+        if args.exhaustive and sum(shapes.values()) == 1:
+            for m in {id(search.rollout_model): search.rollout_model,
+                      id(search.feasibility): search.feasibility}.values():
+                counts, path = terminal_within(root, m, workspace, k, search.config.max_depth)
+                print(f"  exhaustive on {m.name}, new states per depth {counts}: "
+                      + ("no terminal state within d_max" if path is None else
+                         "terminal state by " + ", ".join(
+                             f"{a.object} -> ({a.x:.3f}, {a.y:.3f})" for a in path)))
         if args.optimal and sum(shapes.values()) == 1:
             for m in (search.rollout_model, search.feasibility):
                 plan = plan_optimal(root, m, workspace, OptimalConfig())

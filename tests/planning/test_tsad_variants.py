@@ -33,7 +33,7 @@ def scenes():
 
 def test_every_extra_has_a_paper_value_that_differs_from_full():
     full, paper = make_config("tsad"), make_config("tsad", variant="paper")
-    assert len(EXTRAS) >= 14 and paper.extras == TSADExtras.paper()
+    assert len(EXTRAS) >= 13 and paper.extras == TSADExtras.paper()
     for name in EXTRAS:
         assert getattr(paper.extras, name) != getattr(full.extras, name), name
     # the variant changes the extras only, and never shares them between configs

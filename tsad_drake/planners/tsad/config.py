@@ -32,14 +32,14 @@ class TSADExtras:
     #: random policy. Expansion also tries relevant objects' actions first when this is > 0.
     rollout_bias: float = 0.7
     #: whole sequential searches tried (fresh random streams) until one reaches R = empty; the
-    #: sub-searches are myopic, so a dead end later on is escaped by searching again
+    #: sub-searches are myopic, so a dead end later on is escaped by searching again. The first
+    #: complete plan is returned: collecting three and keeping the shortest (`complete_plans`,
+    #: until 2026-12-07) doubled the planning time of a round for 2 to 8 shorter plans in 65 to
+    #: 78 rounds (tuning seeds 0-29, scenarios 2-3, realistic sensing; docs/benchmark.md)
     restarts: int = 2
     #: drop or merge the actions of a found plan that it does not need (`plan_check.shorten_plan`):
     #: random rollouts leave detours in the tree; False keeps the plan as the search extracted it
     shorten: bool = True
-    #: complete plans collected (each from a fresh sequential search) before the shortest is
-    #: returned; 1 returns the first plan found, as the paper does
-    complete_plans: int = 3
     #: terminal states of a sub-search tried, best first, before the search backs up further
     #: when a later sub-search finds no terminal state (depth-first backtracking over the
     #: sequence); 1 keeps the extracted one only, as the paper does; a myopic first sub-search
@@ -77,7 +77,7 @@ class TSADExtras:
     def paper(cls) -> TSADExtras:
         """Every extra off: the paper's algorithm."""
         return cls(max_iterations=None, widening=None, restarts=1, angle_fallbacks=0,
-                   rollout_bias=0.0, shorten=False, complete_plans=1, backtrack_width=1,
+                   rollout_bias=0.0, shorten=False, backtrack_width=1,
                    fast_rollouts=False, angle_search="gp3", keep_rollout_paths=False,
                    terminal_extraction=False, negative_empty_reward=False, fail_fast=False)
 
@@ -120,8 +120,6 @@ class TSADConfig:
     #: plans again, and no action of the plan is one of them (at any depth, not only the first)
     #: (a run-time field: a config file leaves it empty)
     excluded_actions: list[tuple[str, float, float]] = dc.field(default_factory=list)
-    #: sub-MCTS iterations allowed after the first complete plan for finding shorter ones
-    improve_iterations: int = 2_000
     #: the options beyond the paper (`TSADExtras.paper()` switches every one off)
     extras: TSADExtras = dc.field(default_factory=TSADExtras)
 

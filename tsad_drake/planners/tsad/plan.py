@@ -13,8 +13,7 @@ model (`actions.py`); next states from the point-cloud simulation.
 
 Beyond the paper (each a field of `TSADConfig.extras`; see its comments; `TSADExtras.paper()`
 switches every one off): a complete plan is shortened by dropping or merging actions while
-`plan_check.replay_plan` still accepts it (and split into sub-searches afresh), the shortest of
-`complete_plans` complete plans (found within `improve_iterations` of the first) is returned, a
+`plan_check.replay_plan` still accepts it (and split into sub-searches afresh), a
 sub-search that finds no terminal state makes the search back up to the previous sub-search's
 next-best terminal state (`backtrack_width`), failed attempts are repeated (`restarts`) and at
 other angles (`angle_fallbacks`), and theta* may come from a greedy ranking (`angle_search`). The
@@ -150,11 +149,10 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         ranked = ranked_angles(state, feasibility, workspace, config.max_removals)
         candidates += [theta for theta in ranked if theta != first][:config.extras.angle_fallbacks]
     best = None  #: the failed attempt that got furthest
-    found: list[Plan] = []  #: complete plans, shortened
-    for attempt in range(max(config.extras.restarts, 1) + config.extras.complete_plans - 1):
+    found: Plan | None = None  #: the first complete plan, shortened
+    for attempt in range(max(config.extras.restarts, 1)):
         for j, angle in enumerate(candidates):
-            if attempt > 0:
-                extras["complete_plans" if found else "restarts"] += 1
+            extras["restarts"] += attempt > 0
             extras["angle_fallbacks"] += j > 0
             plan = _sequential_sub_search(state, feasibility, workspace, config, rng, angle,
                                           budget, result, extras)
@@ -165,28 +163,21 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
                                                 workspace, frozenset(config.excluded_actions))
                     plan.stats["actions_before_shortening"] = searched
                     extras["shorten"] += searched - len(plan.actions)
-                found.append(plan)
-                if len(found) == 1:
-                    first_plan = {"attempt": attempt, "angle_rank": j,
-                                  "iterations": budget.iterations}
-                    budget.max_iterations = min(budget.max_iterations,
-                                                budget.iterations + config.improve_iterations)
+                #: where the plan came from: the attempt (0, or a restart) and the rank of its
+                #: angle among the candidates (0: theta*, then the angle fallbacks)
+                plan.stats["found_at"] = {"attempt": attempt, "angle_rank": j}
+                found = plan
                 break
             if best is None or len(plan.actions) > len(best.actions):
                 best = plan
             if budget.exhausted():
                 break
-        if len(found) >= config.extras.complete_plans or budget.exhausted():
+        if found is not None or budget.exhausted():
             break
     if budget.timed_out:
         return timed_out_plan(name, budget, {**angle_stats, "iterations_total": budget.iterations,
                                              "extras_used": dict(extras)})
-    chosen = min(found, key=lambda p: len(p.actions)) if found else best  # the first of the shortest
-    if found:
-        chosen.stats["complete_plans"] = [len(p.actions) for p in found]
-        #: when the first complete plan came: the attempt (0, or a restart), the rank of its
-        #: angle among the candidates (0: theta*) and the call's iterations spent by then
-        chosen.stats["first_plan"] = first_plan
+    chosen = found or best
     chosen.stats["iterations_total"] = budget.iterations
     chosen.stats["extras_used"] = dict(extras)
     chosen.planning_time_s = budget.elapsed  # every attempt, not just the chosen one
