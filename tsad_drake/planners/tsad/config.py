@@ -103,12 +103,12 @@ class TSADConfig:
     max_sub_searches: int = 12  #: sub-MCTS runs before giving up
     #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
     #: search, so the same seed gives the same plan on any machine. 8,000 (20,000 until
-    #: 2026-12-07): on tuning seeds 0-29 of scenarios 2-3 (realistic sensing, 8 frames, `cluster`)
-    #: 5 of 291 rounds with a plan found their first one after 8,000 iterations (8,100-14,116, at
-    #: the fifth angle tried or in a restart); the closed loop executes a failed round's furthest
-    #: attempt's first sub-search and observes again, and with 8,000 success went 25 -> 26 and
-    #: 28 -> 29 of 30 on the network (25 and 29 either way on the geometric model) with the worst
-    #: episode 127 -> 53 s and 102 -> 43 s (docs/benchmark.md)
+    #: 2026-12-07): on tuning seeds 0-29 of scenarios 2-3 (realistic sensing, 8 frames,
+    #: `cluster`), 7 of 291 rounds with a plan found their first one after 8,000 iterations
+    #: (8,100-14,116); a failed round's furthest attempt's first sub-search is executed before
+    #: the loop observes again, and with 8,000 success went 25 -> 26 and 28 -> 29 of 30 on the
+    #: network (25 and 29 either way on the geometric model), the worst episode 127 -> 53 s and
+    #: 102 -> 43 s (docs/benchmark.md)
     iteration_budget: int = 8_000
     #: s, wall-clock safety stop of one plan_tsad call: the counts above end a search; a call the
     #: clock stops is a failure (`Plan.timed_out`, "timed out: ..."), never the plan it had so far
