@@ -28,11 +28,10 @@ from tsad_drake.planners.optimal import OptimalConfig, plan_optimal
 from tsad_drake.planners.tsad.sub_search import SubSearch
 from tsad_drake.planning.actions import object_actions
 from tsad_drake.planning.interface import FeasibilityModel
-from tsad_drake.planning.plan_check import rearrangement_set
 from tsad_drake.planning.pointcloud_sim import simulate_pick_place
 from tsad_drake.planning.registry import get_planner, make_config
 from tsad_drake.planning.state import make_workspace, state_from_perception
-from tsad_drake.planning.types import Action, PlanningState, Workspace
+from tsad_drake.planning.types import Action, PlanningState
 from tsad_drake.scenes import generate_scenario
 
 
@@ -53,28 +52,25 @@ def describe(state: PlanningState, model: FeasibilityModel, k: int) -> list[str]
     return lines
 
 
-def terminal_within(root: PlanningState, model: FeasibilityModel, workspace: Workspace, k: int,
-                    depth: int) -> tuple[list[int], list[Action] | None]:
-    """Breadth-first over every feasible pick-and-place from `root` (distinct states) to `depth`
-    actions: the number of new non-terminal states at each depth, and the first action sequence
-    reaching a terminal state of the sub-search at angle index k (R_{k} lost a member and gained
-    none), or None when no sequence of at most `depth` actions reaches one."""
-    goal = rearrangement_set(root, model, k)
-    theta = float(workspace.approach_angles[k])
-    frontier, seen, counts = [(root, [])], {root.key()}, []
-    for _ in range(depth):
+def terminal_within(search: SubSearch, rollout: bool) -> tuple[list[int], list[Action] | None]:
+    """Breadth-first over every feasible pick-and-place from the search's root (distinct states)
+    to its depth d_max, on its rollout model (`rollout`) or its own: the number of new
+    non-terminal states at each depth, and the first action sequence reaching a state the search
+    itself would call terminal (`SubSearch.reward`), or None when no sequence reaches one."""
+    model = search.rollout_model if rollout else search.feasibility
+    frontier, seen, counts = [(search.root.state, [])], {search.root.state.key()}, []
+    for _ in range(search.config.max_depth):
         grown = []
         for state, path in frontier:
             for i, obj in enumerate(state.objects):
                 if obj.name == state.target:
                     continue
-                for action in object_actions(model, state, i, workspace, theta):
+                for action in object_actions(model, state, i, search.workspace, search.theta):
                     nxt = simulate_pick_place(state, action)
                     if nxt.key() in seen:
                         continue
                     seen.add(nxt.key())
-                    members = rearrangement_set(nxt, model, k)
-                    if members <= goal and goal - members:
+                    if search.reward(nxt, rollout=rollout)[1]:
                         return counts, path + [action]
                     grown.append((nxt, path + [action]))
         counts.append(len(grown))
@@ -133,10 +129,10 @@ def main() -> None:
                   id(search.rollout_model): search.rollout_model}.values():
             print("\n".join(describe(root, m, k)))
         if args.exhaustive and sum(shapes.values()) == 1:
-            for m in {id(search.rollout_model): search.rollout_model,
-                      id(search.feasibility): search.feasibility}.values():
-                counts, path = terminal_within(root, m, workspace, k, search.config.max_depth)
-                print(f"  exhaustive on {m.name}, new states per depth {counts}: "
+            models = {search.rollout_model.name: True, search.feasibility.name: False}
+            for name, rollout in models.items():
+                counts, path = terminal_within(search, rollout)
+                print(f"  exhaustive on {name}, new states per depth {counts}: "
                       + ("no terminal state within d_max" if path is None else
                          "terminal state by " + ", ".join(
                              f"{a.object} -> ({a.x:.3f}, {a.y:.3f})" for a in path)))
