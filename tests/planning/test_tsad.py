@@ -142,7 +142,8 @@ def test_the_iteration_budget_ends_a_search_the_same_way_on_any_machine(scenes):
     scenario, workspace, state = scenes[("1", 1)]
     oracle = make_feasibility("oracle", scenario, workspace)
     # sub-searches that never stop on their own: only the call's budget ends the search
-    endless = with_extras(dc.replace(CONFIG, iterations=10**9), max_iterations=10**9)
+    endless = with_extras(dc.replace(CONFIG, iterations=10**9), max_iterations=10**9,
+                          attempt_iterations=None)
     config = dc.replace(endless, iteration_budget=400)
     plan = plan_tsad(state, oracle, workspace, config, np.random.default_rng(0))
     assert not plan.success and "budget" in plan.failure_reason
@@ -156,6 +157,29 @@ def test_the_iteration_budget_ends_a_search_the_same_way_on_any_machine(scenes):
     assert not plan.success and plan.timed_out and plan.stats["timed_out"]
     assert plan.actions == [] and plan.failure_reason.startswith("timed out")
     assert time.perf_counter() - t0 < 1.0 + 5.0
+
+
+def test_each_attempt_ends_at_its_share_of_the_iterations(scenes):
+    scenario, workspace, state = scenes[("1", 1)]
+    oracle = make_feasibility("oracle", scenario, workspace)
+    # sub-searches that never stop on their own: each attempt ends at its cap, doubled in the
+    # restart pass, and the next angle is tried; the call's budget still bounds them all
+    endless = with_extras(dc.replace(CONFIG, iterations=10**9), max_iterations=10**9,
+                          attempt_iterations=100, restarts=2, angle_fallbacks=1)
+    plan = plan_tsad(state, oracle, workspace, dc.replace(endless, iteration_budget=10**6),
+                     np.random.default_rng(0))
+    assert not plan.success and not plan.timed_out
+    angles = {a["angle_rank"] for a in plan.stats["attempts"]}
+    assert angles == {0, 1}
+    assert plan.stats["attempts"] == [{"attempt": a, "angle_rank": j, "iterations": 100 * 2 ** a}
+                                      for a in range(2) for j in range(2)]
+    assert plan.stats["iterations_total"] == 600
+    assert plan.stats["extras_used"]["attempt_iterations"] == 4
+    # a budget smaller than the caps: it ends the call inside the second attempt
+    short = plan_tsad(state, oracle, workspace, dc.replace(endless, iteration_budget=150),
+                      np.random.default_rng(0))
+    assert [a["iterations"] for a in short.stats["attempts"]] == [100, 50]
+    assert short.stats["iterations_total"] == 150 and "budget" in short.failure_reason
 
 
 def test_a_failed_plan_reports_the_whole_call_as_planning_time(scenes, monkeypatch):

@@ -177,3 +177,28 @@ def test_a_query_whose_window_did_not_change_reuses_its_answer(weights, states):
     for i in range(n):
         assert model.blockers(moved, i) == fresh.blockers(moved, i)
         np.testing.assert_array_equal(model.reachable(moved, i), fresh.reachable(moved, i))
+
+
+def test_pick_angles_asked_lazily_are_the_batched_ones_at_fewer_queries(weights, states):
+    from tsad_drake.planning.actions import cached_pick_angles, lazy_pick_angles
+    from tsad_drake.planning.interface import approach_order
+
+    first_only = 0
+    for _, state, oracle in states:
+        ws = oracle.workspace
+        lazy, eager = NetFeasibility(ws, weights), NetFeasibility(ws, weights)
+        for i in range(len(state.objects)):
+            for prefer in (0.0, float(ws.approach_angles[0])):
+                before = lazy.evaluations
+                taken = next(lazy_pick_angles(lazy, state, i, ws, prefer), None)
+                asked = lazy.evaluations - before
+                angles = cached_pick_angles(eager, state, i, ws, prefer)
+                assert taken == (angles[0] if angles else None)
+                nearest = float(ws.approach_angles[approach_order(ws.approach_angles, prefer)[0]])
+                if taken == nearest and asked:  # the preferred angle works: one query, not seven
+                    assert asked == 1
+                    first_only += 1
+                # the caller that wants every angle gets the batched list, in its order
+                assert list(lazy_pick_angles(lazy, state, i, ws, prefer)) == angles
+                assert eager.pickable_at(state, i, 3) == bool(eager.pickable(state, i)[3])
+    assert first_only > 0

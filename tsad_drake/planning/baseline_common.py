@@ -46,18 +46,31 @@ class Budget:
     iterations: int = 0
     start: float = dc.field(default_factory=time.perf_counter)
     timed_out: bool = False  #: the safety stop was reached
+    #: the budget this one is a part of (`part`): its ticks count there too, and it ends with it
+    parent: Budget | None = None
 
     def tick(self) -> None:
         self.iterations += 1
+        if self.parent is not None:
+            self.parent.tick()
 
     @property
     def elapsed(self) -> float:
         return time.perf_counter() - self.start
 
     def exhausted(self) -> bool:
+        if self.parent is not None:  # the whole search's clock and count end a part too
+            if self.parent.exhausted():
+                self.timed_out = self.parent.timed_out
+                return True
+            return self.iterations >= self.max_iterations
         if not self.timed_out and self.elapsed >= self.safety_stop_s:
             self.timed_out = True
         return self.timed_out or self.iterations >= self.max_iterations
+
+    def part(self, max_iterations: int) -> Budget:
+        """A budget of at most `max_iterations` of this one's (a part of a search)."""
+        return Budget(max_iterations, self.safety_stop_s, parent=self)
 
 
 def timed_out_plan(planner: str, budget: Budget, stats: dict) -> Plan:

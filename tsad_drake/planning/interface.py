@@ -58,6 +58,10 @@ class FeasibilityModel(ABC):
         """R_{theta_k,s} for object `index`: one angle's answer of `blockers`."""
         return self.blockers(state, index)[k]
 
+    def pickable_at(self, state: PlanningState, index: int, k: int) -> bool:
+        """Object `index` can be picked at angle k: one angle's answer of `pickable`."""
+        return bool(self.pickable(state, index)[k])
+
     def reachable(self, state: PlanningState, index: int) -> np.ndarray:
         """(A,) bool: object `index` could be picked at each angle once its blockers are gone.
         Default: every angle (a model that does not know says nothing is ruled out)."""

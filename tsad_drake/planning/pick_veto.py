@@ -34,6 +34,11 @@ class PickVeto(FeasibilityModel):
         ok[ruled_out] = False
         return ok
 
+    def pickable_at(self, state: PlanningState, index: int, k: int) -> bool:
+        if (state.objects[index].name, k) in self.vetoes:
+            return False
+        return self.base.pickable_at(state, index, k)
+
     # -- the wrapped model's answers -----------------------------------------------------------
     def blockers(self, state: PlanningState, index: int) -> list[frozenset[int]]:
         return self.base.blockers(state, index)

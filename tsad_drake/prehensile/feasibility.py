@@ -189,6 +189,12 @@ class NetFeasibility(FeasibilityModel):
         """(A,) reachable and no blocker, per approach angle."""
         return np.array([r and not b for r, b in self._object_answers(state, index)], dtype=bool)
 
+    def pickable_at(self, state: PlanningState, index: int, k: int) -> bool:
+        """Reachable with no blocker at angle k: one network query (cached)."""
+        request = (state, index, k)
+        self.evaluate([request])
+        return self._pickable_answer(request)
+
     def place_options(self, state: PlanningState, index: int, theta_pick: float) -> np.ndarray:
         """(C,) theta_place per grid cell for object `index` picked at theta_pick; nan where none.
 

@@ -37,6 +37,13 @@ class TSADExtras:
     #: until 2026-12-07) doubled the planning time of a round for 2 to 8 shorter plans in 65 to
     #: 78 rounds (tuning seeds 0-29, scenarios 2-3, realistic sensing; docs/benchmark.md)
     restarts: int = 2
+    #: iterations one attempt (one retrieval angle in one pass over the angles) may use before
+    #: the next angle is tried, doubled in each restart pass; the call's `iteration_budget` bounds
+    #: them all; None: only that budget. Without it, a plan found at a fallback angle came after
+    #: the angles ranked above it had spent thousands of iterations failing, while the attempt
+    #: that found it used at most 960 iterations in 193 of 199 rounds with a plan (tuning seeds
+    #: 0-29, scenarios 2-3, realistic sensing, both models; docs/benchmark.md)
+    attempt_iterations: int | None = 1000
     #: drop or merge the actions of a found plan that it does not need (`plan_check.shorten_plan`):
     #: random rollouts leave detours in the tree; False keeps the plan as the search extracted it
     shorten: bool = True
@@ -76,7 +83,8 @@ class TSADExtras:
     @classmethod
     def paper(cls) -> TSADExtras:
         """Every extra off: the paper's algorithm."""
-        return cls(max_iterations=None, widening=None, restarts=1, angle_fallbacks=0,
+        return cls(max_iterations=None, widening=None, restarts=1, attempt_iterations=None,
+                   angle_fallbacks=0,
                    rollout_bias=0.0, shorten=False, backtrack_width=1,
                    fast_rollouts=False, angle_search="gp3", keep_rollout_paths=False,
                    terminal_extraction=False, negative_empty_reward=False, fail_fast=False)
@@ -102,14 +110,14 @@ class TSADConfig:
     empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
     max_sub_searches: int = 12  #: sub-MCTS runs before giving up
     #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
-    #: search, so the same seed gives the same plan on any machine. 8,000 (20,000 until
-    #: 2026-12-07): on tuning seeds 0-29 of scenarios 2-3 (realistic sensing, 8 frames,
-    #: `cluster`), 7 of 291 rounds with a plan found their first one after 8,000 iterations
-    #: (8,100-14,116); a failed round's furthest attempt's first sub-search is executed before
-    #: the loop observes again, and with 8,000 success went 25 -> 26 and 28 -> 29 of 30 on the
-    #: network (25 and 29 either way on the geometric model), the worst episode 127 -> 53 s and
-    #: 102 -> 43 s (docs/benchmark.md)
-    iteration_budget: int = 8_000
+    #: search, so the same seed gives the same plan on any machine. 4,000 (20,000 until
+    #: 2026-12-07, then 8,000 until `attempt_iterations`): with each attempt capped, 3 of 140
+    #: network rounds with a plan on tuning seeds 0-29 of scenarios 2-3 (realistic sensing, 8
+    #: frames, `cluster`) used more than 4,000; against 8,000, the iterations of those rows fell
+    #: 28% and 35% and their worst episode 54 -> 36 s and 70 -> 29 s, success 26 and 29 of 30
+    #: either way (docs/benchmark.md). A failed round's furthest attempt's first sub-search is
+    #: executed before the loop observes again.
+    iteration_budget: int = 4_000
     #: s, wall-clock safety stop of one plan_tsad call: the counts above end a search; a call the
     #: clock stops is a failure (`Plan.timed_out`, "timed out: ..."), never the plan it had so far
     safety_stop_s: float = 300.0

@@ -150,12 +150,19 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         candidates += [theta for theta in ranked if theta != first][:config.extras.angle_fallbacks]
     best = None  #: the failed attempt that got furthest
     found: Plan | None = None  #: the first complete plan, shortened
+    #: per attempt: the pass over the angles, the angle's rank, the iterations it used
+    attempts: list[dict] = []
+    cap = config.extras.attempt_iterations
     for attempt in range(max(config.extras.restarts, 1)):
         for j, angle in enumerate(candidates):
             extras["restarts"] += attempt > 0
             extras["angle_fallbacks"] += j > 0
+            part = budget if cap is None else budget.part(cap * 2 ** attempt)
             plan = _sequential_sub_search(state, feasibility, workspace, config, rng, angle,
-                                          budget, result, extras)
+                                          part, result, extras)
+            attempts.append({"attempt": attempt, "angle_rank": j, "iterations": part.iterations})
+            extras["attempt_iterations"] += part is not budget and not plan.success and (
+                part.exhausted() and not budget.exhausted())
             if plan.success:
                 if config.extras.shorten:
                     searched = len(plan.actions)
@@ -179,6 +186,7 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
                                              "extras_used": dict(extras)})
     chosen = found or best
     chosen.stats["iterations_total"] = budget.iterations
+    chosen.stats["attempts"] = attempts
     chosen.stats["extras_used"] = dict(extras)
     chosen.planning_time_s = budget.elapsed  # every attempt, not just the chosen one
     return chosen
