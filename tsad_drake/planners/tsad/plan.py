@@ -161,8 +161,8 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
             plan = _sequential_sub_search(state, feasibility, workspace, config, rng, angle,
                                           part, result, extras)
             attempts.append({"attempt": attempt, "angle_rank": j, "iterations": part.iterations})
-            extras["attempt_iterations"] += part is not budget and not plan.success and (
-                part.exhausted() and not budget.exhausted())
+            extras["attempt_iterations"] += (not plan.success and part.exhausted()
+                                             and not budget.exhausted())
             if plan.success:
                 if config.extras.shorten:
                     searched = len(plan.actions)
