@@ -40,10 +40,13 @@ class TSADExtras:
     #: iterations one attempt (one retrieval angle in one pass over the angles) may use before
     #: the next angle is tried, doubled in each restart pass; the call's `iteration_budget` bounds
     #: them all; None: only that budget. Without it, a plan found at a fallback angle came after
-    #: the angles ranked above it had spent thousands of iterations failing, while the attempt
-    #: that found it used at most 960 iterations in 193 of 199 rounds with a plan (tuning seeds
-    #: 0-29, scenarios 2-3, realistic sensing, both models; docs/benchmark.md)
-    attempt_iterations: int | None = 1000
+    #: the angles ranked above it had spent thousands of iterations failing. 500 (1,000 until
+    #: 2026-12-07's second change, with `iteration_budget` 4,000): on tuning seeds 0-29 of
+    #: scenarios 2-3 (realistic sensing, 8 frames, `cluster`) success 26 / 28 of 30 on the network
+    #: and 25 / 29 geometric (26 / 29 and 24 / 29 before), worst episode 36 -> 28 s and
+    #: 29 -> 11 s on the network; 250 (budget 1,000) gave more rounds and more actions
+    #: (docs/benchmark.md)
+    attempt_iterations: int | None = 500
     #: drop or merge the actions of a found plan that it does not need (`plan_check.shorten_plan`):
     #: random rollouts leave detours in the tree; False keeps the plan as the search extracted it
     shorten: bool = True
@@ -110,14 +113,14 @@ class TSADConfig:
     empty_reference: str = "initial"  #: r_e counts empty cells vs "initial" s_0 or "sub_root"
     max_sub_searches: int = 12  #: sub-MCTS runs before giving up
     #: sub-MCTS iterations of one plan_tsad call, over every attempt: the budget that ends a
-    #: search, so the same seed gives the same plan on any machine. 4,000 (20,000 until
-    #: 2026-12-07, then 8,000 until `attempt_iterations`): with each attempt capped, 3 of 140
-    #: network rounds with a plan on tuning seeds 0-29 of scenarios 2-3 (realistic sensing, 8
-    #: frames, `cluster`) used more than 4,000; against 8,000, the iterations of those rows fell
-    #: 28% and 35% and their worst episode 54 -> 36 s and 70 -> 29 s, success 26 and 29 of 30
-    #: either way (docs/benchmark.md). A failed round's furthest attempt's first sub-search is
-    #: executed before the loop observes again.
-    iteration_budget: int = 4_000
+    #: search, so the same seed gives the same plan on any machine. 2,000 (20,000 until
+    #: 2026-12-07, then 8,000, then 4,000 with `attempt_iterations` 1,000): a round's time follows
+    #: its iterations, and a failing round used the whole budget, while the closed loop executes
+    #: the failed round's furthest first sub-search and observes again; tuning seeds 0-29 of
+    #: scenarios 2-3 kept their success and lost 27-47% of their iterations (docs/benchmark.md).
+    #: The paper variant (120 iterations per sub-search, at most 12 sub-searches, no fallbacks)
+    #: never reaches it.
+    iteration_budget: int = 2_000
     #: s, wall-clock safety stop of one plan_tsad call: the counts above end a search; a call the
     #: clock stops is a failure (`Plan.timed_out`, "timed out: ..."), never the plan it had so far
     safety_stop_s: float = 300.0
