@@ -116,8 +116,8 @@ class TSADConfig:
     #: search, so the same seed gives the same plan on any machine. 2,000 (20,000 until
     #: 2026-12-07, then 8,000, then 4,000 with `attempt_iterations` 1,000): a round's time follows
     #: its iterations, and a failing round used the whole budget, while the closed loop executes
-    #: the failed round's furthest first sub-search and observes again; tuning seeds 0-29 of
-    #: scenarios 2-3 kept their success and lost 27-47% of their iterations (docs/benchmark.md).
+    #: the failed round's furthest first sub-search and observes again; on tuning seeds 0-29 of
+    #: scenarios 2-3 the rows' iterations fell 25-47% (success: `attempt_iterations`).
     #: The paper variant (120 iterations per sub-search, at most 12 sub-searches, no fallbacks)
     #: never reaches it.
     iteration_budget: int = 2_000
