@@ -6,7 +6,8 @@ planner), timing the observation and the search, optionally under cProfile.
         [--threads 1]
 
 Prints one line per seed: observation seconds, planning seconds, iterations, network queries,
-actions, success; the `--profile` file is read with `python -m pstats`.
+actions, success, then each attempt's iterations (TSAD: the pass over the angles, the angle's
+rank); the `--profile` file is read with `python -m pstats`.
 """
 
 from __future__ import annotations
@@ -79,6 +80,9 @@ def main() -> None:
               f"net {getattr(model, 'network_seconds', 0):.2f} s  "
               f"actions {len(plan.actions)}  success {plan.success}  {plan.failure_reason}",
               flush=True)
+        for a in plan.stats.get("attempts", []):
+            print(f"    attempt {a['attempt']}, angle rank {a['angle_rank']}: "
+                  f"{a['iterations']} iterations")
     if profiler:
         profiler.dump_stats(args.profile)
 
