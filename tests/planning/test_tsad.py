@@ -327,7 +327,8 @@ def test_fast_rollouts_join_the_tree_only_as_actions_of_the_searchs_own_model(sc
     scenario, workspace, state = scenes[("1", 0)]
     oracle = make_feasibility("oracle", scenario, workspace)
     model = _WithRolloutModel(oracle, make_feasibility("geometric", scenario, workspace))
-    plan = plan_tsad(state, model, workspace, CONFIG, np.random.default_rng(0))
+    plan = plan_tsad(state, model, workspace, with_extras(CONFIG, draft_search=False),
+                     np.random.default_rng(0))
     assert plan.success and plan_still_valid(state, plan.actions, plan.theta_star, oracle,
                                              workspace)
     world = GeometricWorld(scenario)
@@ -484,3 +485,86 @@ def test_a_move_there_and_back_is_dropped_as_a_pair():
     for action in shortened:
         world.execute(action)
     assert world.retrieve() and not world.fallen
+
+
+class _NoPlacements(PickVeto):
+    """A model that can pick what its base picks but place nothing anywhere."""
+
+    def __init__(self, base):
+        super().__init__(base, set())
+
+    def place_options(self, state, index, theta_pick):
+        return np.full(len(self.workspace.cell_centres), np.nan)
+
+    def first_place_option(self, state, index, theta_pick, cells):
+        return None
+
+
+def test_a_draft_on_the_rollout_model_is_the_plan_only_when_the_model_certifies_it(scenes,
+                                                                                  monkeypatch):
+    scenario, workspace, state = scenes[("1", 0)]
+    oracle = make_feasibility("oracle", scenario, workspace)
+    geometric = make_feasibility("geometric", scenario, workspace)
+    plan = plan_tsad(state, _WithRolloutModel(oracle, geometric), workspace, CONFIG,
+                     np.random.default_rng(0))
+    draft = plan.stats["draft"]
+    assert plan.success and draft["certified"] is True and draft["model"] == "geometric"
+    assert plan.stats["iterations_total"] == draft["iterations"] > 0
+    assert plan.stats["extras_used"]["draft_search"] == 1
+    assert plan_still_valid(state, plan.actions, plan.theta_star, oracle, workspace)
+    world = GeometricWorld(scenario)
+    for action in plan.actions:
+        world.execute(action)
+    assert world.retrieve() and not world.fallen
+
+    # the model rules out the draft's first pick at every angle: the draft is not certified,
+    # the round is searched on the model itself, and its plan never makes that pick
+    first = plan.actions[0].object
+    vetoed = PickVeto(oracle, {(first, k) for k in range(len(workspace.approach_angles))})
+    again = plan_tsad(state, _WithRolloutModel(vetoed, geometric), workspace, CONFIG,
+                      np.random.default_rng(0))
+    assert again.stats["draft"]["certified"] is False
+    assert again.stats["iterations_total"] > again.stats["draft"]["iterations"]
+    assert first not in {a.object for a in again.actions}
+    if again.success:
+        assert plan_still_valid(state, again.actions, again.theta_star, vetoed, workspace)
+
+    # a draft whose search finds no plan ends the round with the draft's reason, and nothing
+    # is searched after it (the model itself would have found one here)
+    failed = plan_tsad(state, _WithRolloutModel(oracle, _NoPlacements(geometric)), workspace,
+                       CONFIG, np.random.default_rng(0))
+    assert not failed.success and failed.failure_reason.endswith("(draft on the geometric model)")
+    assert failed.stats["draft"]["success"] is False and failed.actions == []
+    assert failed.stats["iterations_total"] == failed.stats["draft"]["iterations"]
+    # the paper's TSAD searches on the model itself
+    paper = plan_tsad(state, _WithRolloutModel(oracle, _NoPlacements(geometric)), workspace,
+                      with_extras(CONFIG, draft_search=False), np.random.default_rng(0))
+    assert paper.success and "draft" not in paper.stats
+    # a draft that calls the state unsolvable where the model itself did not: the models
+    # disagree about the state, and the round is searched on the model itself
+    import tsad_drake.planners.tsad.plan as tsad_module
+
+    real = tsad_module.unsolvable_reason
+    monkeypatch.setattr(tsad_module, "unsolvable_reason", lambda s, model: (
+        "unsolvable: the rollout model says so" if model is geometric else real(s, model)))
+    searched = plan_tsad(state, _WithRolloutModel(oracle, geometric), workspace, CONFIG,
+                         np.random.default_rng(0))
+    assert searched.stats["draft"]["success"] is False and searched.success
+    assert searched.stats["iterations_total"] > 0
+    assert plan_still_valid(state, searched.actions, searched.theta_star, oracle, workspace)
+
+
+def test_the_certified_prefix_stops_at_the_first_action_the_model_refuses(scenes, plans):
+    from tsad_drake.planning.plan_check import certified_prefix
+
+    scenario, workspace, state = scenes[("1", 0)]
+    oracle = make_feasibility("oracle", scenario, workspace)
+    actions = plans[("1", 0)].actions
+    assert len(actions) >= 2
+    whole = certified_prefix(state, actions, oracle, workspace)
+    assert [(a.object, a.x, a.y, a.sub_search) for a in whole] == [
+        (a.object, a.x, a.y, a.sub_search) for a in actions]
+    second = actions[1].object
+    vetoed = PickVeto(oracle, {(second, k) for k in range(len(workspace.approach_angles))})
+    cut = certified_prefix(state, actions, vetoed, workspace)
+    assert len(cut) == next(i for i, a in enumerate(actions) if a.object == second)

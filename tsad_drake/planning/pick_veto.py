@@ -23,6 +23,7 @@ class PickVeto(FeasibilityModel):
         self.name = base.name
         self.workspace = base.workspace
         self.answers_one_cell = base.answers_one_cell
+        self._rollout: PickVeto | None = None  #: `rollout_model`'s vetoed copy, made once
 
     def pickable(self, state: PlanningState, index: int) -> np.ndarray:
         ok = self.base.pickable(state, index)
@@ -60,7 +61,14 @@ class PickVeto(FeasibilityModel):
         return self.base.first_place_option(state, index, theta_pick, cells)
 
     def rollout_model(self) -> FeasibilityModel:
-        return self.base.rollout_model()
+        """The wrapped model's rollout model with the same vetoes (itself when that is the
+        wrapped model): rollouts and drafts (`TSADExtras.draft_search`) rule out the same picks."""
+        cheap = self.base.rollout_model()
+        if cheap is self.base:
+            return self
+        if self._rollout is None or self._rollout.base is not cheap:
+            self._rollout = PickVeto(cheap, set(self.vetoes))
+        return self._rollout
 
     def evaluate_all(self, state: PlanningState) -> None:
         self.base.evaluate_all(state)

@@ -74,6 +74,20 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
     return out
 
 
+def certified_prefix(state: PlanningState, actions: list[Action],
+                     feasibility: FeasibilityModel, workspace: Workspace) -> list[Action]:
+    """The longest prefix of `actions` that `feasibility` accepts from `state`, each action
+    re-derived as `replay_plan` re-derives it (sub-search labels kept)."""
+    current, out = state, []
+    for action in actions:
+        redone = rederive(feasibility, current, action, workspace, action.theta_pick)
+        if redone is None:
+            break
+        out.append(dc.replace(redone, sub_search=action.sub_search))
+        current = simulate_pick_place(current, out[-1])
+    return out
+
+
 def regroup(state: PlanningState, actions: list[Action], theta_star: float,
             feasibility: FeasibilityModel, workspace: Workspace) -> list[Action] | None:
     """`actions` with sub-search labels that meet TSAD's termination conditions: a sub-search

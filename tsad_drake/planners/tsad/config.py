@@ -82,6 +82,16 @@ class TSADExtras:
     #: blocking each other at every angle), with that reason, instead of searching until the
     #: budget is spent; False searches anyway, as the paper does
     fail_fast: bool = True
+    #: a round is searched first on the feasibility model's cheaper `rollout_model` (the
+    #: network: its point-cloud placement model), with the same budgets, and the model itself
+    #: certifies the draft: each action re-derived on it (theta_pick, theta_place as an
+    #: expansion chooses them), the target pickable at the end (`plan_check.replay_plan`). A
+    #: certified draft is the plan; a draft the model rejects is searched again on the model;
+    #: a draft that finds no plan ends the round, with its certified first actions (the loop
+    #: executes them or looks again). The network's failing rounds were 6-8 s of 2,000
+    #: iterations where the placement model fails the same rounds in 1-2 s
+    #: (docs/benchmark.md); False searches on the model itself
+    draft_search: bool = True
 
     @classmethod
     def paper(cls) -> TSADExtras:
@@ -90,7 +100,8 @@ class TSADExtras:
                    angle_fallbacks=0,
                    rollout_bias=0.0, shorten=False, backtrack_width=1,
                    fast_rollouts=False, angle_search="gp3", keep_rollout_paths=False,
-                   terminal_extraction=False, negative_empty_reward=False, fail_fast=False)
+                   terminal_extraction=False, negative_empty_reward=False, fail_fast=False,
+                   draft_search=False)
 
 
 #: the extras, by field name of `TSADExtras`

@@ -29,7 +29,7 @@ from collections.abc import Callable
 import numpy as np
 
 from tsad_drake.planners.gp3 import gp3_optimal_angle
-from tsad_drake.planners.tsad.config import EXTRAS, TSADConfig
+from tsad_drake.planners.tsad.config import EXTRAS, TSADConfig, with_extras
 from tsad_drake.planners.tsad.sub_search import EmptyCells, SubSearch
 from tsad_drake.planning.actions import (
     choose_theta_pick,
@@ -37,6 +37,9 @@ from tsad_drake.planning.actions import (
 from tsad_drake.planning.baseline_common import Budget, reachable_angles, timed_out_plan
 from tsad_drake.planning.interface import FeasibilityModel, angle_index
 from tsad_drake.planning.plan_check import (
+    certified_prefix,
+    regroup,
+    replay_plan,
     shorten_plan,
 )
 from tsad_drake.planning.solvability import unsolvable_reason
@@ -137,6 +140,12 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         if why:
             extras["fail_fast"] += 1
             return result(None, [], False, why, unsolvable=True)
+    draft_iterations = 0
+    if config.extras.draft_search and feasibility.rollout_model() is not feasibility:
+        drafted = _draft(state, feasibility, workspace, config, rng, result, extras, angle_stats)
+        if drafted is not None:
+            return drafted
+        draft_iterations = angle_stats["draft"]["iterations"]
     first = choose_theta_star(state, feasibility, workspace, config, rng, angle_stats)
     if angle_stats.get("gp3_timed_out"):
         budget.timed_out = True
@@ -185,11 +194,49 @@ def plan_tsad(state: PlanningState, feasibility: FeasibilityModel, workspace: Wo
         return timed_out_plan(name, budget, {**angle_stats, "iterations_total": budget.iterations,
                                              "extras_used": dict(extras)})
     chosen = found or best
-    chosen.stats["iterations_total"] = budget.iterations
+    chosen.stats["iterations_total"] = budget.iterations + draft_iterations
     chosen.stats["attempts"] = attempts
     chosen.stats["extras_used"] = dict(extras)
     chosen.planning_time_s = budget.elapsed  # every attempt, not just the chosen one
     return chosen
+
+
+def _draft(state: PlanningState, feasibility: FeasibilityModel, workspace: Workspace,
+           config: TSADConfig, rng: np.random.Generator, result: Callable[..., Plan],
+           extras: Counter[str], angle_stats: dict) -> Plan | None:
+    """`TSADExtras.draft_search`: the round searched on `feasibility.rollout_model()` and its
+    plan certified on `feasibility` (each action re-derived, the target pickable at the end).
+    The certified plan; a failure when the draft's search found none (its certified first
+    actions, the draft's reason); None when `feasibility` rejects the draft's plan or the draft
+    ends as unsolvable where `feasibility` did not (search on it instead).
+    `angle_stats["draft"]` records the draft (its iterations count in the round's)."""
+    cheap = feasibility.rollout_model()
+    draft = plan_tsad(state, cheap, workspace, with_extras(config, draft_search=False), rng)
+    iterations = draft.stats.get("iterations_total", 0)
+    extras.update(draft.stats.get("extras_used", {}))
+    extras["draft_search"] += 1
+    record = angle_stats["draft"] = {"model": cheap.name, "success": draft.success,
+                                     "iterations": iterations, "actions": len(draft.actions),
+                                     "certified": False}
+    inherited = {key: value for key, value in draft.stats.items()
+                 if key not in ("extras_used", "draft")}
+    if draft.timed_out:
+        return dc.replace(draft, stats={**inherited, **angle_stats, "extras_used": extras})
+    if not draft.success:
+        if draft.stats.get("unsolvable"):  # the model itself found the state solvable (its
+            return None                    # fail_fast ran first): only a search on it can tell
+        checked = certified_prefix(state, draft.actions, feasibility, workspace)
+        record["certified"] = len(checked)
+        return result(draft.theta_star, checked, False,
+                      f"{draft.failure_reason} (draft on the {cheap.name} model)", **inherited)
+    redone = replay_plan(state, draft.actions, draft.theta_star, feasibility, workspace,
+                         groups=False)
+    labelled = None if redone is None else regroup(state, redone, draft.theta_star,
+                                                   feasibility, workspace)
+    if labelled is None:
+        return None
+    record["certified"] = True
+    return result(draft.theta_star, labelled, True, **inherited)
 
 
 def _sequential_sub_search(state: PlanningState, feasibility: FeasibilityModel,
