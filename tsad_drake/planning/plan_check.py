@@ -46,46 +46,51 @@ def replay_plan(state: PlanningState, actions: list[Action], theta_star: float,
 
     With `groups` False the termination conditions at the ends of the actions' sub-searches are
     not checked (see `regroup`)."""
-    names = {o.name for o in state.objects}
-    if state.target not in names:
+    if state.target not in {o.name for o in state.objects}:
         return None
     k = angle_index(workspace.approach_angles, theta_star)
     current, out = state, []
     group_start = rearrangement_set(state, feasibility, k)
-    for n, action in enumerate(actions):
-        if action.object not in names or action.object == state.target:
-            return None
-        # the search's own rule (pick angle nearest the recorded one that reaches the cell; a
-        # cell where the object already is is no move: a merge of two moves can end there)
-        redone = rederive(feasibility, current, action, workspace, action.theta_pick)
-        if redone is None:
-            return None
-        step = dc.replace(redone, sub_search=action.sub_search)
-        current = simulate_pick_place(current, step)
+    for n, (action, (step, current)) in enumerate(zip(actions, _replayed(
+            state, actions, feasibility, workspace))):
         out.append(step)
         if groups and (n + 1 == len(actions) or actions[n + 1].sub_search != action.sub_search):
             now = rearrangement_set(current, feasibility, k)
             if not (now < group_start):  # termination conditions: R shrank, nothing new in it
                 return None
             group_start = now
+    if len(out) < len(actions):
+        return None
     t = current.target_index
     if feasibility.blockers(current, t)[k] or not feasibility.pickable(current, t)[k]:
         return None
     return out
 
 
+def _replayed(state: PlanningState, actions: list[Action], feasibility: FeasibilityModel,
+              workspace: Workspace):
+    """(re-derived action, state after it) for each of `actions` in turn, ending before the
+    first one `feasibility` refuses or that moves the target or an object not in `state`:
+    the search's own rule (the pick angle nearest the recorded one that reaches the cell; a
+    cell where the object already is is no move: a merge of two moves can end there)."""
+    names = {o.name for o in state.objects}
+    current = state
+    for action in actions:
+        if action.object not in names or action.object == state.target:
+            return
+        redone = rederive(feasibility, current, action, workspace, action.theta_pick)
+        if redone is None:
+            return
+        step = dc.replace(redone, sub_search=action.sub_search)
+        current = simulate_pick_place(current, step)
+        yield step, current
+
+
 def certified_prefix(state: PlanningState, actions: list[Action],
                      feasibility: FeasibilityModel, workspace: Workspace) -> list[Action]:
     """The longest prefix of `actions` that `feasibility` accepts from `state`, each action
     re-derived as `replay_plan` re-derives it (sub-search labels kept)."""
-    current, out = state, []
-    for action in actions:
-        redone = rederive(feasibility, current, action, workspace, action.theta_pick)
-        if redone is None:
-            break
-        out.append(dc.replace(redone, sub_search=action.sub_search))
-        current = simulate_pick_place(current, out[-1])
-    return out
+    return [step for step, _ in _replayed(state, actions, feasibility, workspace)]
 
 
 def regroup(state: PlanningState, actions: list[Action], theta_star: float,

@@ -86,7 +86,8 @@ class TSADExtras:
     #: network: its point-cloud placement model), with the same budgets, and the model itself
     #: certifies the draft: each action re-derived on it (theta_pick, theta_place as an
     #: expansion chooses them), the target pickable at the end (`plan_check.replay_plan`). A
-    #: certified draft is the plan; a draft the model rejects is searched again on the model;
+    #: certified draft is the plan; a draft the model rejects, or one unsolvable where the
+    #: model's own fail-fast test was not, is searched again on the model;
     #: a draft that finds no plan ends the round, with its certified first actions (the loop
     #: executes them or looks again). The network's failing rounds were 6-8 s of 2,000
     #: iterations where the placement model fails the same rounds in 1-2 s

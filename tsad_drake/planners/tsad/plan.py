@@ -218,15 +218,14 @@ def _draft(state: PlanningState, feasibility: FeasibilityModel, workspace: Works
     record = angle_stats["draft"] = {"model": cheap.name, "success": draft.success,
                                      "iterations": iterations, "actions": len(draft.actions),
                                      "certified": False}
-    inherited = {key: value for key, value in draft.stats.items()
-                 if key not in ("extras_used", "draft")}
+    inherited = {key: value for key, value in draft.stats.items() if key != "extras_used"}
     if draft.timed_out:
         return dc.replace(draft, stats={**inherited, **angle_stats, "extras_used": extras})
     if not draft.success:
         if draft.stats.get("unsolvable"):  # the model itself found the state solvable (its
             return None                    # fail_fast ran first): only a search on it can tell
         checked = certified_prefix(state, draft.actions, feasibility, workspace)
-        record["certified"] = len(checked)
+        record["certified_actions"] = len(checked)
         return result(draft.theta_star, checked, False,
                       f"{draft.failure_reason} (draft on the {cheap.name} model)", **inherited)
     redone = replay_plan(state, draft.actions, draft.theta_star, feasibility, workspace,
